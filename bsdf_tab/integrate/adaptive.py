@@ -1,0 +1,540 @@
+"""The default integrator: nested, error-controlled adaptive Gauss-Kronrod in micro-normal space.
+
+Every hemispherical integral of the catalog is rewritten over the micro-normal m (Walter et al.
+2007, eqs. 14 and 17: the Jacobians cancel against the BSDF's denominators):
+
+    E  = int F(i.m) G(i, o_r) D(m) (i.m) / mu  dw_m     over o_r = reflect(i, m) above,
+    T  = int (1 - F(i.m)) G(i, o_t) D(m) (i.m) / mu  dw_m   over o_t = refract(i, m) below.
+
+Micro-normals are parametrized by (v, phi): u = 1 - (1 - v)^2 is the CDF of D(m) cos(theta_m) in
+theta_m (closed form for GGX and Beckmann), so D cos dw_m = du dphi / (2 pi) and the integrand is
+F G (i.m) / (mu cos theta_m), bounded, and scale-free in alpha (near-mirror alpha costs nothing
+extra). The v map also removes the (1 - u)^(-1/2) growth of tan(theta_m) at grazing.
+
+For fixed theta_m, i.m = sin(theta_i) sin(theta_m) cos(phi) + mu cos(theta_m) is monotone in phi on
+[0, pi], and every boundary of the integrand is a threshold on i.m with a closed form:
+the reflection horizon o_r.n = 0 at i.m = mu / (2 cos theta_m), i.m = 0, total internal reflection
+at i.m = sqrt(1 - eta^2), and the transmission horizon o_t.n = 0 at
+i.m = mu / (2 cos theta_m) + (1 - eta^2) cos theta_m / (2 mu) (eta < 1). The inner phi integral is
+split at those points, each piece mapped by phi = a + (b - a)(3 t^2 - 2 t^3) (which smooths the
+square-root behaviour of Fresnel at the critical angle and of the horizons), and integrated by
+adaptive G7-K15. The outer v integral is adaptive G7-K15 too, started from the closed-form
+theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, and the
+critical-angle crossings).
+
+Error estimate: per interval |K15 - G7| (an estimate of the G7 error, so pessimistic for the
+K15 value that is returned), summed over accepted intervals, plus the inner estimates carried
+through the outer quadrature weights. Intervals that hit the depth limit are accepted with their
+estimate, so a texel that cannot reach the tolerance reports a large error instead of a wrong
+small one.
+
+References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
+Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from ..model.distribution import BECKMANN, lambda_cos
+from ..model.fresnel import fresnel, fresnel_dielectric
+from ..model.frame import expm1_, log1p_
+from ..model.shadowing import smith_G_over_cos_i_from_lambda
+
+# integrand families
+MODE_REFLECT = wp.constant(0)  # channel 0: int F G D (i.m)/mu     (albedo)
+MODE_DIELECTRIC = wp.constant(1)  # channels R, T (exact dielectric Fresnel, eta per texel)
+MODE_DFG = wp.constant(2)  # channels A, B: split-sum weights (1 - (1-c)^5), (1-c)^5, F = 1
+
+MODES = {"reflect": 0, "dielectric": 1, "dfg": 2}
+
+_vec8d = wp.types.vector(length=8, dtype=wp.float64)
+_STACK = 48
+_stackd = wp.types.vector(length=_STACK, dtype=wp.float64)
+_stacki = wp.types.vector(length=_STACK, dtype=wp.int32)
+_vec6d = wp.types.vector(length=6, dtype=wp.float64)
+
+# Gauss-Kronrod 15-point abscissae on [-1, 1] (positive half, centre last) and weights;
+# Gauss 7-point weights for the odd Kronrod abscissae and the centre (QUADPACK qk15).
+_XGK = wp.constant(
+    _vec8d(
+        0.991455371120812639206854697526329,
+        0.949107912342758524526189684047851,
+        0.864864423359769072789712788640926,
+        0.741531185599394439863864773280788,
+        0.586087235467691130294144845693013,
+        0.405845151377397166906606412076961,
+        0.207784955007898467600689403773245,
+        0.0,
+    )
+)
+_WGK = wp.constant(
+    _vec8d(
+        0.022935322010529224963732008058970,
+        0.063092092629978553290700663189204,
+        0.104790010322250183839876322541518,
+        0.140653259715525918745189590510238,
+        0.169004726639267902826583426598550,
+        0.190350578064785409913256402421014,
+        0.204432940075298892414161999234649,
+        0.209482141084727828012999174891714,
+    )
+)
+_WG = wp.constant(
+    _vec8d(
+        0.0,
+        0.129484966168869693270611432679082,
+        0.0,
+        0.279705391489276667901467771423780,
+        0.0,
+        0.381830050505118944950369775488975,
+        0.0,
+        0.417959183673469387755102040816327,
+    )
+)
+
+_PI = wp.constant(wp.float64(math.pi))
+_HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
+
+
+@wp.struct
+class TexelParams:
+    """What the integrand needs besides the integration variables."""
+
+    mode: wp.int32
+    dist: wp.int32
+    shadowing: wp.int32
+    ftype: wp.int32
+    fp0: wp.float64
+    fp1: wp.float64
+    mu: wp.float64
+    sin_i: wp.float64
+    alpha: wp.float64
+    eta: wp.float64
+    li: wp.float64  # mu * Lambda(mu)
+
+
+@wp.func
+def _integrand(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
+    """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi)."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    cp = wp.cos(phi)
+    c = p.sin_i * sm * cp + p.mu * cm
+    out = wp.vec2d(zero, zero)
+    if c <= zero:
+        # chi+(i.m): i sees the back of the micro-facet
+        return out
+    # (i.m) / cos(theta_m), written without the division
+    jac = p.sin_i * tm * cp + p.mu
+    zo = wp.float64(2.0) * c * cm - p.mu
+    if zo > zero:
+        lo = lambda_cos(zo, p.alpha, p.dist)
+        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, zo, lo, p.shadowing) * jac
+        if p.mode == MODE_DFG:
+            w = one - c
+            w5 = w * w * w * w * w
+            out = wp.vec2d(g * (one - w5), g * w5)
+        elif p.mode == MODE_DIELECTRIC:
+            out = wp.vec2d(fresnel_dielectric(c, p.eta) * g, zero)
+        else:
+            out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
+    if p.mode == MODE_DIELECTRIC:
+        k2 = one - (one - c * c) / (p.eta * p.eta)
+        if k2 > zero:
+            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta
+            zt = (c / p.eta - wp.sqrt(k2)) * cm - p.mu / p.eta
+            if zt < zero:
+                azt = -zt
+                lt = lambda_cos(azt, p.alpha, p.dist)
+                g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azt, lt, p.shadowing) * jac
+                out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
+    return out
+
+
+@wp.func
+def _phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
+    # invert i.m = sin_i sm cos(phi) + mu cm for phi in [0, pi]
+    x = (cb - p.mu * cm) / (p.sin_i * sm)
+    return wp.acos(wp.clamp(x, wp.float64(-1.0), wp.float64(1.0)))
+
+
+@wp.func
+def _gk_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: wp.float64, b: wp.float64,
+            ta: wp.float64, tb: wp.float64):
+    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3). Returns (K, |K - G|)."""
+    half = wp.float64(0.5)
+    ctr = half * (ta + tb)
+    hl = half * (tb - ta)
+    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        jj = j
+        sgn = wp.float64(1.0)
+        if j >= 8:
+            jj = j - 8
+            sgn = wp.float64(-1.0)
+        t = ctr + sgn * hl * _XGK[jj]
+        s = t * t * (wp.float64(3.0) - wp.float64(2.0) * t)
+        ds = wp.float64(6.0) * t * (wp.float64(1.0) - t)
+        f = _integrand(p, cm, sm, tm, a + (b - a) * s) * (ds * (b - a))
+        rk += _WGK[jj] * f
+        rg += _WG[jj] * f
+    rk = rk * hl
+    rg = rg * hl
+    d = rk - rg
+    return rk, wp.vec2d(wp.abs(d[0]), wp.abs(d[1]))
+
+
+@wp.func
+def _adaptive_piece(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: wp.float64,
+                    b: wp.float64, tol: wp.float64, max_depth: wp.int32):
+    """Locally adaptive G7-K15 over one phi piece; tol is the absolute target for the piece."""
+    total = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    err = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    sa = _stackd()
+    sb = _stackd()
+    sd = _stacki()
+    sa[0] = wp.float64(0.0)
+    sb[0] = wp.float64(1.0)
+    sd[0] = 0
+    n = int(1)
+    while n > 0:
+        n -= 1
+        ta = sa[n]
+        tb = sb[n]
+        depth = sd[n]
+        k, e = _gk_phi(p, cm, sm, tm, a, b, ta, tb)
+        loc = tol * (tb - ta)
+        if (wp.max(e[0], e[1]) <= loc) or depth >= max_depth or n + 2 >= _STACK:
+            total += k
+            err += e
+        else:
+            mid = wp.float64(0.5) * (ta + tb)
+            sa[n] = mid
+            sb[n] = tb
+            sd[n] = depth + 1
+            sa[n + 1] = ta
+            sb[n + 1] = mid
+            sd[n + 1] = depth + 1
+            n += 2
+    return total, err
+
+
+@wp.func
+def _insert_sorted(v: _vec6d, n: wp.int32, x: wp.float64):
+    # insertion into the first n sorted entries (n < 6)
+    i = n
+    while i > 0 and v[i - 1] > x:
+        v[i] = v[i - 1]
+        i -= 1
+    v[i] = x
+    return v
+
+
+@wp.func
+def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
+           max_depth: wp.int32):
+    """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    pi = _PI
+    total = wp.vec2d(zero, zero)
+    err = wp.vec2d(zero, zero)
+    ss = p.sin_i * sm
+    if ss <= wp.float64(1.0e-300):
+        # i.m does not depend on phi (normal incidence or m = n): constant integrand
+        f = _integrand(p, cm, sm, tm, wp.float64(0.5) * pi)
+        return f * pi, err
+    c_min = p.mu * cm - ss
+    c_max = p.mu * cm + ss
+    cuts = _vec6d()
+    nc = int(0)
+    cands = _vec6d()
+    ncand = int(0)
+    cands[0] = zero
+    cands[1] = p.mu / (wp.float64(2.0) * cm)
+    ncand = 2
+    if p.mode == MODE_DIELECTRIC and p.eta < one:
+        e2 = one - p.eta * p.eta
+        cands[2] = wp.sqrt(e2)
+        ncand = 3
+        if p.mu > zero:
+            cands[3] = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
+            ncand = 4
+    for q in range(ncand):
+        cb = cands[q]
+        if cb > c_min and cb < c_max:
+            cuts = _insert_sorted(cuts, nc, _phi_of_c(cb, p, cm, sm))
+            nc += 1
+    a = zero
+    for q in range(nc + 1):
+        b = pi
+        if q < nc:
+            b = cuts[q]
+        if b > a:
+            r, e = _adaptive_piece(p, cm, sm, tm, a, b, tol * (b - a) / pi, max_depth)
+            total += r
+            err += e
+        a = b
+    return total, err
+
+
+@wp.func
+def _theta_of_v(p: TexelParams, v: wp.float64):
+    """tan(theta_m) for outer variable v, where u = 1 - (1 - v)^2 is the D cos CDF."""
+    one = wp.float64(1.0)
+    w = one - v
+    if p.dist == BECKMANN:
+        # u = 1 - exp(-tan^2 / alpha^2)  =>  tan^2 = -alpha^2 log((1 - v)^2)
+        return p.alpha * wp.sqrt(wp.max(wp.float64(0.0), wp.float64(-2.0) * log1p_(-v)))
+    # GGX: u = tan^2 / (alpha^2 + tan^2)  =>  tan = alpha sqrt(u) / (1 - v)
+    return p.alpha * wp.sqrt(v * (wp.float64(2.0) - v)) / w
+
+
+@wp.func
+def _v_of_theta(p: TexelParams, theta: wp.float64):
+    """Inverse of :func:`_theta_of_v` (theta in [0, pi/2])."""
+    one = wp.float64(1.0)
+    if theta >= _HALF_PI:
+        return one
+    c = wp.cos(theta)
+    s = wp.sin(theta)
+    if p.dist == BECKMANN:
+        t = s / c
+        return -expm1_(-t * t / (wp.float64(2.0) * p.alpha * p.alpha))
+    return one - p.alpha * c / wp.sqrt(p.alpha * p.alpha * c * c + s * s)
+
+
+@wp.func
+def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, max_depth: wp.int32):
+    """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v). Returns (K, |K - G| + inner errors)."""
+    half = wp.float64(0.5)
+    one = wp.float64(1.0)
+    ctr = half * (va + vb)
+    hl = half * (vb - va)
+    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        jj = j
+        sgn = one
+        if j >= 8:
+            jj = j - 8
+            sgn = -one
+        v = ctr + sgn * hl * _XGK[jj]
+        tm = _theta_of_v(p, v)
+        cm = one / wp.sqrt(one + tm * tm)
+        sm = tm * cm
+        jac = wp.float64(2.0) * (one - v)
+        f, e = _inner(p, cm, sm, tm, tol_in / jac, max_depth)
+        rk += _WGK[jj] * jac * f
+        rg += _WG[jj] * jac * f
+        ei += _WGK[jj] * jac * e
+    rk = rk * hl
+    rg = rg * hl
+    d = rk - rg
+    return rk, wp.vec2d(wp.abs(d[0]), wp.abs(d[1])) + ei * hl
+
+
+@wp.func
+def _mirror(p: TexelParams):
+    """alpha = 0: D is a Dirac delta at n, o is the mirror (or straight refraction), G = 1."""
+    one = wp.float64(1.0)
+    if p.mode == MODE_DFG:
+        w = one - p.mu
+        w5 = w * w * w * w * w
+        return wp.vec2d(one - w5, w5)
+    if p.mode == MODE_DIELECTRIC:
+        f = fresnel_dielectric(p.mu, p.eta)
+        return wp.vec2d(f, one - f)
+    return wp.vec2d(fresnel(p.mu, p.ftype, p.fp0, p.fp1), wp.float64(0.0))
+
+
+@wp.kernel
+def texel_kernel(
+    idx: wp.array(dtype=wp.int32),
+    mu_a: wp.array(dtype=wp.float64),
+    alpha_a: wp.array(dtype=wp.float64),
+    eta_a: wp.array(dtype=wp.float64),
+    mode: wp.int32,
+    dist: wp.int32,
+    shadowing: wp.int32,
+    ftype: wp.int32,
+    fp0: wp.float64,
+    fp1: wp.float64,
+    tol: wp.float64,
+    max_depth_outer: wp.int32,
+    max_depth_inner: wp.int32,
+    value: wp.array2d(dtype=wp.float64),
+    error: wp.array2d(dtype=wp.float64),
+):
+    tid = wp.tid()
+    i = idx[tid]
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    mu = wp.clamp(mu_a[i], zero, one)
+    p = TexelParams()
+    p.mode = mode
+    p.dist = dist
+    p.shadowing = shadowing
+    p.ftype = ftype
+    p.fp0 = fp0
+    p.fp1 = fp1
+    p.mu = mu
+    p.sin_i = wp.sqrt(wp.max(zero, one - mu * mu))
+    p.alpha = alpha_a[i]
+    p.eta = eta_a[i]
+    p.li = lambda_cos(mu, p.alpha, dist)
+    if p.alpha <= zero:
+        r = _mirror(p)
+        value[i, 0] = r[0]
+        value[i, 1] = r[1]
+        error[i, 0] = zero
+        error[i, 1] = zero
+        return
+    # outer breakpoints in theta_m where the phi pieces change (module docstring)
+    theta_i = wp.acos(mu)
+    hp = _HALF_PI
+    th = _vec6d()
+    nt = int(0)
+    cands = _vec6d()
+    cands[0] = wp.float64(0.5) * (hp - theta_i)
+    cands[1] = hp - theta_i
+    cands[2] = wp.float64(0.5) * (hp + theta_i)
+    ncand = 3
+    if mode == MODE_DIELECTRIC and p.eta < one:
+        theta_c = wp.acos(wp.sqrt(one - p.eta * p.eta))
+        cands[3] = wp.abs(theta_i - theta_c)
+        cands[4] = theta_i + theta_c
+        ncand = 5
+    for q in range(ncand):
+        x = cands[q]
+        if x > zero and x < hp:
+            th = _insert_sorted(th, nt, x)
+            nt += 1
+    v_end = one
+    if mode != MODE_DIELECTRIC:
+        # reflection only: no admissible micro-normal beyond theta_m = (pi/2 + theta_i) / 2
+        v_end = _v_of_theta(p, wp.float64(0.5) * (hp + theta_i))
+    # split the outer budget: half for the v quadrature, the rest for the inner integrals
+    tol_total = tol * _PI
+    tol_in = wp.float64(0.25) * tol_total
+    tol_out = wp.float64(0.5) * tol_total
+    total = wp.vec2d(zero, zero)
+    err = wp.vec2d(zero, zero)
+    sa = _stackd()
+    sb = _stackd()
+    sd = _stacki()
+    # seed the stack with the pieces between breakpoints (pushed in reverse for left-first order)
+    ends = _vec8d()
+    ends[0] = zero
+    ne = int(1)
+    for q in range(nt):
+        vb = _v_of_theta(p, th[q])
+        if vb > ends[ne - 1] and vb < v_end:
+            ends[ne] = vb
+            ne += 1
+    ends[ne] = v_end
+    n = int(0)
+    for q in range(ne):
+        k = ne - 1 - q
+        if ends[k + 1] > ends[k]:
+            sa[n] = ends[k]
+            sb[n] = ends[k + 1]
+            sd[n] = 0
+            n += 1
+    span = v_end
+    while n > 0:
+        n -= 1
+        va = sa[n]
+        vb = sb[n]
+        depth = sd[n]
+        r, e = _gk_v(p, va, vb, tol_in, max_depth_inner)
+        loc = tol_out * (vb - va) / span
+        if (wp.max(e[0], e[1]) <= loc and depth > 0) or depth >= max_depth_outer or n + 2 >= _STACK:
+            total += r
+            err += e
+        else:
+            mid = wp.float64(0.5) * (va + vb)
+            sa[n] = mid
+            sb[n] = vb
+            sd[n] = depth + 1
+            sa[n + 1] = va
+            sb[n + 1] = mid
+            sd[n + 1] = depth + 1
+            n += 2
+    value[i, 0] = total[0] / _PI
+    value[i, 1] = total[1] / _PI
+    error[i, 0] = err[0] / _PI
+    error[i, 1] = err[1] / _PI
+
+
+def integrate_texels(
+    mode: str,
+    mu: np.ndarray,
+    alpha: np.ndarray,
+    eta: np.ndarray | None = None,
+    *,
+    dist: int = 0,
+    shadowing: int = 1,
+    ftype: int = 0,
+    fp0: float = 0.0,
+    fp1: float = 0.0,
+    tol: float = 5e-7,
+    device=None,
+    workers: int | None = None,
+    progress=None,
+    max_depth_outer: int = 30,
+    max_depth_inner: int = 24,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
+
+    Parameters
+    ----------
+    mode : {"reflect", "dielectric", "dfg"}
+        Integrand family (see module docstring). "reflect" uses Fresnel ``ftype`` (p0, p1).
+    mu, alpha, eta : array_like
+        Flat float64 arrays of the same length; ``eta`` only for "dielectric".
+    tol : float
+        Target absolute error per texel and channel.
+
+    Returns
+    -------
+    values, errors : ndarray, shape (N, 2)
+        Channel 0 / 1 are (E, 0), (R, T) or (A, B); errors are the per-texel estimates.
+    """
+    from .parallel import resolve_device, run_chunks
+
+    dev = resolve_device(device) if not isinstance(device, wp.Device) else device
+    mu = np.ascontiguousarray(mu, dtype=np.float64).ravel()
+    alpha = np.ascontiguousarray(alpha, dtype=np.float64).ravel()
+    n = mu.size
+    eta = np.ones(n) if eta is None else np.ascontiguousarray(eta, dtype=np.float64).ravel()
+    if not (alpha.size == n and eta.size == n):
+        raise ValueError("mu, alpha and eta must have the same number of texels")
+    mu_w = wp.array(mu, dtype=wp.float64, device=dev)
+    alpha_w = wp.array(alpha, dtype=wp.float64, device=dev)
+    eta_w = wp.array(eta, dtype=wp.float64, device=dev)
+    value = wp.zeros((n, 2), dtype=wp.float64, device=dev)
+    error = wp.zeros((n, 2), dtype=wp.float64, device=dev)
+
+    def launch(idx):
+        wp.launch(
+            texel_kernel,
+            dim=idx.shape[0],
+            inputs=[
+                idx, mu_w, alpha_w, eta_w, MODES[mode], int(dist), int(shadowing), int(ftype),
+                float(fp0), float(fp1), float(tol), int(max_depth_outer), int(max_depth_inner),
+                value, error,
+            ],
+            device=dev,
+        )
+
+    # interleave the texels so that expensive ones (grazing mu) spread over the workers
+    order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 else None
+    run_chunks(n, launch, dev, workers=workers, progress=progress, order=order)
+    return value.numpy(), error.numpy()

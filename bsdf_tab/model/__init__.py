@@ -1,0 +1,47 @@
+"""Device code: microfacet model functions as Warp ``@wp.func``.
+
+Every function here is generic over the floating-point type: call it with ``wp.float32`` or
+``wp.float64`` arguments (and ``wp.vec3f`` / ``wp.vec3d`` directions) from your own
+``@wp.kernel``. Integer selectors (distribution, shadowing mode, Fresnel type) are
+``wp.int32`` constants exported below.
+
+Conventions follow Walter et al. 2007, "Microfacet Models for Refraction through Rough
+Surfaces": local frame with macro normal n = +z, all directions unit vectors pointing away from
+the surface, ``alpha`` is Walter's width parameter (alpha_g for GGX, alpha_b for Beckmann).
+
+No I/O happens in this package: it is importable into any user's kernel module.
+"""
+
+from .frame import cos_theta, sin2_theta, tan2_theta, reflect, refract, expm1_, log1p_
+from .ggx import ggx_D, ggx_lambda, ggx_lambda_cos, ggx_sample_vndf
+from .beckmann import beckmann_D, beckmann_lambda, beckmann_lambda_cos, beckmann_sample_vndf
+from .distribution import (
+    GGX,
+    BECKMANN,
+    D,
+    Lambda,
+    lambda_cos,
+    smith_G1,
+    sample_vndf,
+    pdf_vndf,
+)
+from .shadowing import (
+    SEPARABLE,
+    CORRELATED,
+    smith_G,
+    smith_G_over_cos_i,
+    smith_G_over_cos_i_from_lambda,
+)
+from .fresnel import (
+    FRESNEL_ONE,
+    FRESNEL_SCHLICK,
+    FRESNEL_DIELECTRIC,
+    FRESNEL_CONDUCTOR,
+    fresnel_schlick,
+    fresnel_dielectric,
+    fresnel_conductor,
+    fresnel,
+)
+from .bsdf import brdf, btdf
+
+__all__ = [name for name in dir() if not name.startswith("_")]

@@ -1,0 +1,82 @@
+"""Fresnel reflectance, unpolarized.
+
+``FRESNEL_ONE`` (F = 1), ``FRESNEL_SCHLICK`` (f0 + (1 - f0)(1 - c)^5, Schlick 1994),
+``FRESNEL_DIELECTRIC`` (exact, Walter et al. 2007 eq. 22, total internal reflection gives 1),
+``FRESNEL_CONDUCTOR`` (exact for a complex IOR eta + i k, e.g. Born and Wolf; as in pbrt).
+The generic :func:`fresnel` takes two parameters p0, p1: (f0, -) for Schlick, (eta, -) for
+dielectric, (eta, k) for conductor.
+"""
+
+from typing import Any
+
+import warp as wp
+
+FRESNEL_ONE = wp.constant(0)
+FRESNEL_SCHLICK = wp.constant(1)
+FRESNEL_DIELECTRIC = wp.constant(2)
+FRESNEL_CONDUCTOR = wp.constant(3)
+
+
+@wp.func
+def fresnel_schlick(cos_i: Any, f0: Any):
+    c = wp.min(wp.abs(cos_i), type(f0)(1.0))
+    m = type(f0)(1.0) - c
+    m2 = m * m
+    return f0 + (type(f0)(1.0) - f0) * m2 * m2 * m
+
+
+@wp.func
+def fresnel_dielectric(cos_i: Any, eta: Any):
+    """Exact unpolarized Fresnel for relative IOR ``eta`` = eta_t / eta_i (Walter eq. 22)."""
+    zero = type(eta)(0.0)
+    one = type(eta)(1.0)
+    c = wp.min(wp.abs(cos_i), one)
+    g2 = eta * eta - one + c * c
+    if g2 <= zero:
+        # total internal reflection (g2 = 0 is the critical angle, where F = 1 too)
+        return one
+    g = wp.sqrt(g2)
+    a = (g - c) / (g + c)
+    num = c * (g + c) - one
+    den = c * (g - c) + one
+    # den >= 1 - c^2 >= 0, and den = 0 needs c = 1 and g = 0, excluded above
+    b = num / den
+    return type(eta)(0.5) * a * a * (one + b * b)
+
+
+@wp.func
+def fresnel_conductor(cos_i: Any, eta: Any, k: Any):
+    """Exact unpolarized Fresnel for a conductor of complex relative IOR eta + i k."""
+    zero = type(eta)(0.0)
+    one = type(eta)(1.0)
+    c = wp.min(wp.abs(cos_i), one)
+    c2 = c * c
+    s2 = one - c2
+    t0 = eta * eta - k * k - s2
+    a2b2 = wp.sqrt(t0 * t0 + type(eta)(4.0) * eta * eta * k * k)
+    a = wp.sqrt(wp.max(zero, type(eta)(0.5) * (a2b2 + t0)))
+    rs_num = a2b2 + c2 - type(eta)(2.0) * a * c
+    rs_den = a2b2 + c2 + type(eta)(2.0) * a * c
+    if rs_den <= zero:
+        # eta = k = 0 at grazing: a degenerate conductor reflects everything
+        return one
+    rs = rs_num / rs_den
+    t1 = c2 * a2b2 + s2 * s2
+    t2 = type(eta)(2.0) * a * c * s2
+    rp_den = t1 + t2
+    rp = rs
+    if rp_den > zero:
+        rp = rs * (t1 - t2) / rp_den
+    return type(eta)(0.5) * (rs + rp)
+
+
+@wp.func
+def fresnel(cos_i: Any, ftype: wp.int32, p0: Any, p1: Any):
+    """Fresnel of type ``ftype`` at incidence cosine ``cos_i`` (see module docstring)."""
+    if ftype == FRESNEL_SCHLICK:
+        return fresnel_schlick(cos_i, p0)
+    if ftype == FRESNEL_DIELECTRIC:
+        return fresnel_dielectric(cos_i, p0)
+    if ftype == FRESNEL_CONDUCTOR:
+        return fresnel_conductor(cos_i, p0, p1)
+    return type(p0)(1.0)

@@ -1,0 +1,81 @@
+"""GGX (Trowbridge-Reitz) microfacet distribution.
+
+References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces"
+(D, eq. 33; Smith Lambda); Heitz 2014, "Understanding the Masking-Shadowing Function in
+Microfacet-Based BRDFs" (Lambda); Heitz 2018, "Sampling the GGX Distribution of Visible
+Normals" (VNDF sampling).
+"""
+
+from typing import Any
+
+import warp as wp
+
+_TWO_PI = 6.283185307179586
+
+
+@wp.func
+def ggx_D(cos_theta_m: Any, alpha: Any):
+    """D(m) = alpha^2 / (pi cos^4 (alpha^2 + tan^2)^2), normalized: int D cos dw = 1."""
+    zero = type(alpha)(0.0)
+    if cos_theta_m <= zero:
+        # back-facing micro-normals carry no area
+        return zero
+    if alpha <= zero:
+        # alpha = 0 is a Dirac delta: no finite density
+        return zero
+    c2 = cos_theta_m * cos_theta_m
+    a2 = alpha * alpha
+    # cos^2 (alpha^2 + tan^2) = alpha^2 cos^2 + sin^2, finite at grazing
+    den = a2 * c2 + wp.max(zero, type(alpha)(1.0) - c2)
+    return a2 / (type(alpha)(wp.pi) * den * den)
+
+
+@wp.func
+def ggx_lambda_cos(cos_theta_v: Any, alpha: Any):
+    """|cos| * Lambda(v): (sqrt(z^2 + alpha^2 s^2) - z) / 2, finite at grazing (alpha / 2)."""
+    zero = type(alpha)(0.0)
+    z = wp.abs(cos_theta_v)
+    a2s2 = alpha * alpha * wp.max(zero, type(alpha)(1.0) - z * z)
+    den = type(alpha)(2.0) * (wp.sqrt(z * z + a2s2) + z)
+    if den <= zero:
+        # alpha = 0 at grazing: a mirror has no shadowing
+        return zero
+    # rationalized form, no cancellation for small alpha tan
+    return a2s2 / den
+
+
+@wp.func
+def ggx_lambda(cos_theta_v: Any, alpha: Any):
+    """Smith Lambda(v) = (-1 + sqrt(1 + alpha^2 tan^2)) / 2 (exact, infinite at grazing)."""
+    z = wp.abs(cos_theta_v)
+    if z <= type(alpha)(0.0):
+        # grazing: fully shadowed unless alpha = 0
+        if alpha <= type(alpha)(0.0):
+            return type(alpha)(0.0)
+        return type(alpha)(wp.inf)
+    return ggx_lambda_cos(cos_theta_v, alpha) / z
+
+
+@wp.func
+def ggx_sample_vndf(wi: Any, alpha: Any, u1: Any, u2: Any):
+    """Sample a visible micro-normal for ``wi`` (wi.z > 0), density G1 max(0, wi.m) D / wi.z."""
+    zero = type(alpha)(0.0)
+    one = type(alpha)(1.0)
+    if alpha <= zero:
+        # mirror: the only micro-normal is the macro normal
+        return type(wi)(zero, zero, one)
+    vh = wp.normalize(type(wi)(alpha * wi[0], alpha * wi[1], wi[2]))
+    lensq = vh[0] * vh[0] + vh[1] * vh[1]
+    t1 = type(wi)(one, zero, zero)
+    if lensq > zero:
+        # a tangent perpendicular to the stretched view (undefined at normal incidence)
+        t1 = type(wi)(-vh[1], vh[0], zero) / wp.sqrt(lensq)
+    t2 = wp.cross(vh, t1)
+    r = wp.sqrt(u1)
+    phi = type(alpha)(_TWO_PI) * u2
+    p1 = r * wp.cos(phi)
+    p2 = r * wp.sin(phi)
+    s = type(alpha)(0.5) * (one + vh[2])
+    p2 = (one - s) * wp.sqrt(wp.max(zero, one - p1 * p1)) + s * p2
+    nh = p1 * t1 + p2 * t2 + wp.sqrt(wp.max(zero, one - p1 * p1 - p2 * p2)) * vh
+    return wp.normalize(type(wi)(alpha * nh[0], alpha * nh[1], wp.max(zero, nh[2])))

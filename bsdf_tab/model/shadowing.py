@@ -1,0 +1,64 @@
+"""Smith shadowing-masking G for a pair of directions.
+
+``SEPARABLE``: G1(i) G1(o) (Walter et al. 2007). ``CORRELATED``: 1 / (1 + Lambda(i) +
+Lambda(o)) (Heitz 2014, "Understanding the Masking-Shadowing Function in Microfacet-Based
+BRDFs"). Both are formed from |z| Lambda(z) so grazing directions give 0, not 0 * inf. The
+chi+ terms depend on the micro-normal and are applied by the caller (see ``bsdf.py``).
+"""
+
+from typing import Any
+
+import warp as wp
+
+from .distribution import lambda_cos
+
+SEPARABLE = wp.constant(0)
+CORRELATED = wp.constant(1)
+
+
+@wp.func
+def smith_G_over_cos_i_from_lambda(zi: Any, li: Any, zo: Any, lo: Any, shadowing: wp.int32):
+    """G / zi from zi = |cos_i|, zo = |cos_o| and li = zi Lambda_i, lo = zo Lambda_o."""
+    zero = zi * type(zi)(0.0)
+    den = zero
+    if shadowing == CORRELATED:
+        # 1 / (zi (1 + Lambda_i + Lambda_o)) = zo / (zi zo + li zo + lo zi)
+        den = zi * zo + li * zo + lo * zi
+    else:
+        # 1 / (zi (1 + Lambda_i)(1 + Lambda_o)) = zo / ((zi + li)(zo + lo))
+        den = (zi + li) * (zo + lo)
+    if den <= zero:
+        # only with alpha = 0 at grazing: take the mirror value G = 1 (and 0 for zi = 0)
+        if zi > zero:
+            return type(zi)(1.0) / zi
+        return zero
+    return zo / den
+
+
+@wp.func
+def smith_G_over_cos_i(cos_i: Any, cos_o: Any, alpha: Any, dist: wp.int32, shadowing: wp.int32):
+    """G(i, o) / |cos_i| without chi+ terms; finite as cos_i -> 0 (the integrators' form)."""
+    zi = wp.abs(cos_i)
+    zo = wp.abs(cos_o)
+    return smith_G_over_cos_i_from_lambda(
+        zi, lambda_cos(zi, alpha, dist), zo, lambda_cos(zo, alpha, dist), shadowing
+    )
+
+
+@wp.func
+def smith_G(cos_i: Any, cos_o: Any, alpha: Any, dist: wp.int32, shadowing: wp.int32):
+    """Shadowing-masking G(i, o) in [0, 1] without chi+ terms."""
+    zi = wp.abs(cos_i)
+    zo = wp.abs(cos_o)
+    li = lambda_cos(zi, alpha, dist)
+    lo = lambda_cos(zo, alpha, dist)
+    num = zi * zo
+    den = type(alpha)(0.0)
+    if shadowing == CORRELATED:
+        den = zi * zo + li * zo + lo * zi
+    else:
+        den = (zi + li) * (zo + lo)
+    if den <= type(alpha)(0.0):
+        # grazing with alpha = 0: a mirror does not shadow
+        return type(alpha)(1.0)
+    return num / den
