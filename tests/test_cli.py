@@ -1,0 +1,254 @@
+"""Tests of the bsdf-tab command line (run in-process through cli.main)."""
+
+import importlib.util
+import json
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from bsdf_tab import cli
+from bsdf_tab.exr import read_exr
+from bsdf_tab.spec import normalize_spec, resolve_axes, texel_count
+from bsdf_tab.table import Table
+
+HAVE_API = importlib.util.find_spec("bsdf_tab.api") is not None
+
+
+def hand_table(spec: dict) -> Table:
+    """A table with deterministic values for ``spec`` and small error channels."""
+    nspec = normalize_spec(spec)
+    axes = resolve_axes(nspec)
+    shape = tuple(len(a) for a in axes.values())
+    kind = nspec["table"]
+    names = {"albedo": ["E"], "albedo_avg": ["E_avg"], "dielectric": ["R", "T"], "dfg": ["A", "B"]}[kind]
+    channels = {n: np.full(shape, 0.5, dtype=np.float32) for n in names}
+    channels.update({n + "_err": np.full(shape, 2.5e-7, dtype=np.float32) for n in names})
+    meta = {"spec": nspec, "conventions": {"alpha": "walter"}, "method": "adaptive", "version": "9.9.9"}
+    return Table(axes, channels, meta)
+
+
+@pytest.fixture
+def fake_api(monkeypatch):
+    """Replace bsdf_tab.api by a fake whose tabulate records its calls."""
+    calls = []
+
+    def tabulate(spec, *, device=None, workers=None, progress=False):
+        calls.append({"spec": spec, "device": device, "workers": workers, "progress": progress})
+        if callable(progress):
+            n = texel_count(spec)
+            progress(n // 2, n)
+            progress(n, n)
+        return hand_table(spec)
+
+    module = types.ModuleType("bsdf_tab.api")
+    module.tabulate = tabulate
+    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    return calls
+
+
+def run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code, err, *fragments):
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("bsdf-tab: error: ")
+    assert "Traceback" not in err
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def test_bad_spec_is_one_line_exit_2(tmp_path, capsys):
+    spec = tmp_path / "bad.json"
+    spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": [0.5, 0.2]}}))
+    code, out, err = run(capsys, "bake", str(spec))
+    assert_one_line_error(code, err, "axes.mu", "strictly increasing")
+    assert not (tmp_path / "bad.exr").exists()
+
+
+def test_unknown_table_is_one_line_exit_2(tmp_path, capsys):
+    spec = tmp_path / "bad.json"
+    spec.write_text(json.dumps({"table": "glass"}))
+    code, _, err = run(capsys, "bake", str(spec))
+    assert_one_line_error(code, err, "table", "must be one of")
+
+
+def test_bad_json_is_one_line_exit_2(tmp_path, capsys):
+    spec = tmp_path / "broken.json"
+    spec.write_text("{not json")
+    code, _, err = run(capsys, "bake", str(spec))
+    assert_one_line_error(code, err, "invalid JSON")
+
+
+def test_missing_spec_file(tmp_path, capsys):
+    code, _, err = run(capsys, "bake", str(tmp_path / "nope.json"))
+    assert_one_line_error(code, err, "not found", "nope.json")
+
+
+def test_info_on_missing_and_foreign_files(tmp_path, capsys):
+    code, _, err = run(capsys, "info", str(tmp_path / "nope.exr"))
+    assert_one_line_error(code, err, "nope.exr")
+    text = tmp_path / "text.exr"
+    text.write_text("not an exr")
+    code, _, err = run(capsys, "info", str(text))
+    assert_one_line_error(code, err, "not an OpenEXR file")
+
+
+def test_usage_errors_exit_2(capsys):
+    assert cli.main(["bake", "--no-such-option"]) == 2
+    assert cli.main([]) == 2
+    assert cli.main(["frobnicate"]) == 2
+    capsys.readouterr()
+
+
+def test_library_value_error_is_one_line(monkeypatch, tmp_path, capsys):
+    def tabulate(spec, **kwargs):
+        raise ValueError("tolerance cannot be reached\non this device")
+
+    module = types.ModuleType("bsdf_tab.api")
+    module.tabulate = tabulate
+    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
+    code, _, err = run(capsys, "bake", str(spec))
+    assert_one_line_error(code, err, "tolerance cannot be reached on this device")
+
+
+def test_internal_error_no_traceback(monkeypatch, tmp_path, capsys):
+    def tabulate(spec, **kwargs):
+        raise RuntimeError("kernel exploded")
+
+    module = types.ModuleType("bsdf_tab.api")
+    module.tabulate = tabulate
+    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
+    code, _, err = run(capsys, "bake", str(spec))
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1 and "kernel exploded" in err and "Traceback" not in err
+
+
+def test_keyboard_interrupt_exit_130(monkeypatch, tmp_path, capsys):
+    def tabulate(spec, **kwargs):
+        raise KeyboardInterrupt
+
+    module = types.ModuleType("bsdf_tab.api")
+    module.tabulate = tabulate
+    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
+    code, _, err = run(capsys, "bake", str(spec))
+    assert code == 130
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+# --------------------------------------------------------------------------- info
+
+
+def test_info_prints_axes_and_max_error(tmp_path, capsys):
+    table = hand_table({"table": "dielectric", "axes": {"mu": [0.25, 1.0], "alpha": {"size": 3}, "eta": [1.5]}})
+    table.channels["T_err"][1, 2, 0] = 3.25e-6
+    path = tmp_path / "glass.exr"
+    table.write_exr(path)
+    code, out, err = run(capsys, "info", str(path))
+    assert code == 0 and err == ""
+    assert "table: dielectric" in out
+    assert "mu" in out and "size 2" in out and "min 0.25" in out
+    assert "alpha" in out and "size 3" in out and "max 1" in out
+    assert "eta" in out and "min 1.5" in out
+    assert "channels: R, T, R_err, T_err" in out
+    assert "R: 2.5e-07" in out
+    assert "T: 3.25e-06" in out
+    assert "method: adaptive" in out
+    assert "version: 9.9.9" in out
+    assert "alpha: walter" in out  # conventions
+
+
+# --------------------------------------------------------------------------- bake (fake api)
+
+
+def test_bake_spec_file_with_fake_api(tmp_path, capsys, fake_api):
+    spec = tmp_path / "tiny.json"
+    spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": {"size": 3}, "alpha": [0.1, 0.5]}}))
+    code, out, err = run(capsys, "bake", str(spec), "--device", "cpu", "--quiet", "--workers", "2")
+    assert code == 0, err
+    assert fake_api[0]["device"] == "cpu" and fake_api[0]["workers"] == 2 and fake_api[0]["progress"] is False
+    assert fake_api[0]["spec"]["table"] == "albedo"
+    written = tmp_path / "tiny.exr"
+    table = read_exr(written)
+    assert table.shape == (3, 2)
+    assert str(written) in out and "mu 3 x alpha 2" in out and "2.5e-07" in out
+    assert len(out.strip().splitlines()) == 1
+
+
+def test_bake_output_option_and_formats(tmp_path, capsys, fake_api):
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.1, 0.5]}}))
+    out_exr = tmp_path / "custom.exr"
+    assert run(capsys, "bake", str(spec), "-o", str(out_exr), "-q")[0] == 0
+    assert read_exr(out_exr).axes["alpha"].tolist() == [0.1, 0.5]
+    out_npz = tmp_path / "t.npz"
+    assert run(capsys, "bake", str(spec), "-o", str(out_npz), "-q")[0] == 0
+    assert Table.from_npz_bytes(out_npz.read_bytes()).shape == (2,)
+    code, _, err = run(capsys, "bake", str(spec), "-o", str(tmp_path / "t.png"), "-q")
+    assert_one_line_error(code, err, ".exr")
+
+
+def test_default_specs_content():
+    specs = dict(cli.default_specs())
+    assert len(specs) == 7
+    shapes = {name: tuple(len(a) for a in resolve_axes(s).values()) for name, s in specs.items()}
+    assert shapes["ggx_albedo.exr"] == (32, 32)
+    assert shapes["beckmann_albedo_avg.exr"] == (32,)
+    assert shapes["ggx_dielectric_eta_gt1.exr"] == (16, 16, 16)
+    assert shapes["ggx_dfg.exr"] == (128, 128)
+    for name, spec in specs.items():
+        n = normalize_spec(spec)
+        assert n["shadowing"] == "correlated"
+        assert n["fresnel"]["type"] in ("one", "dielectric")
+    assert normalize_spec(specs["beckmann_albedo.exr"])["distribution"] == "beckmann"
+    gt = resolve_axes(specs["ggx_dielectric_eta_gt1.exr"])["eta"]
+    lt = resolve_axes(specs["ggx_dielectric_eta_lt1.exr"])["eta"]
+    assert gt.min() > 1 and lt.max() < 1
+    np.testing.assert_allclose(np.sort(1.0 / lt), gt, rtol=1e-15)
+    dfg = resolve_axes(specs["ggx_dfg.exr"])
+    assert list(dfg) == ["mu", "roughness"]
+    assert dfg["mu"][0] == pytest.approx(0.5 / 128) and dfg["roughness"][-1] == pytest.approx(1 - 0.5 / 128)
+
+
+def test_bake_default_set_with_fake_api(tmp_path, capsys, fake_api):
+    out_dir = tmp_path / "luts"
+    code, out, err = run(capsys, "bake", "-o", str(out_dir))
+    assert code == 0, err
+    names = sorted(p.name for p in out_dir.iterdir())
+    assert names == sorted(name for name, _ in cli.default_specs())
+    assert all(callable(call["progress"]) for call in fake_api)
+    assert read_exr(out_dir / "ggx_dfg.exr").shape == (128, 128)
+    assert len(out.strip().splitlines()) == 7
+
+
+# --------------------------------------------------------------------------- bake (real api)
+
+
+@pytest.mark.skipif(not HAVE_API, reason="bsdf_tab.api (tabulate) is not written yet")
+def test_bake_tiny_spec_with_real_api(tmp_path, capsys):
+    spec = tmp_path / "tiny.json"
+    spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": [0.5, 1.0], "alpha": [0.2, 1.0]}, "tolerance": 1e-5}))
+    code, out, err = run(capsys, "bake", str(spec), "--device", "cpu", "--quiet")
+    assert code == 0, err
+    table = read_exr(tmp_path / "tiny.exr")
+    assert table.shape == (2, 2)
+    assert set(table.value_channels) == {"E"} and "E_err" in table.channels
+    # closed form: GGX, F = 1, mu = 1, alpha = 1 -> E = 1 - ln 2 (both shadowing modes)
+    assert table.channels["E"][1, 1] == pytest.approx(1 - np.log(2), abs=1e-4)
+    assert np.all((table.channels["E"] > 0) & (table.channels["E"] <= 1))
+    assert table.meta["spec"] == normalize_spec(json.loads(spec.read_text()))
