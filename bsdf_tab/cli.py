@@ -277,6 +277,15 @@ def _os_message(exc: OSError) -> str:
     return str(exc)
 
 
+def _silence_stdout() -> None:
+    import os
+
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout is not a real file (tests)
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the ``bsdf-tab`` command.
 
@@ -304,6 +313,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into `head` and the like: stop quietly
+        _silence_stdout()
+        return 0
     except (CliError, SpecError, ValueError) as exc:
         return _error(str(exc), 2)
     except OSError as exc:
