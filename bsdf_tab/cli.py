@@ -111,12 +111,25 @@ def _load_spec_file(path: Path) -> dict:
         raise CliError(f"{path}: {exc}") from None
 
 
-def _tabulate():
+def _tabulate(args: argparse.Namespace):
+    _quiet_warp(args)  # before the import: the integrators may initialize Warp on import
     try:
         from .api import tabulate
     except ImportError as exc:
         raise CliError(f"the tabulation API is not available: {exc}") from None
     return tabulate
+
+
+def _quiet_warp(args: argparse.Namespace) -> None:
+    """Keep Warp's start-up and module-load messages off stdout (unless --debug)."""
+    if getattr(args, "debug", False):
+        return
+    try:
+        import warp
+    except ImportError:
+        return
+    warp.config.log_level = getattr(warp, "LOG_WARNING", 30)  # Warp >= 1.1x: logging threshold
+    warp.config.quiet = True  # older Warp releases
 
 
 def _save(table, out: Path) -> None:
@@ -146,7 +159,7 @@ def _bake_one(args: argparse.Namespace) -> int:
         raise CliError(f"output {out}: the suffix must be .exr, .npz or .json")
     if not out.parent.is_dir():
         raise CliError(f"output folder does not exist: {out.parent}")
-    tabulate = _tabulate()
+    tabulate = _tabulate(args)
     table = tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
     _save(table, out)
     print(_summary(out, table))
@@ -165,7 +178,7 @@ def _bake_default_set(args: argparse.Namespace) -> int:
         raise CliError(f"output {out_dir} exists and is not a folder (with no spec, -o names a folder)")
     out_dir.mkdir(parents=True, exist_ok=True)
     specs = [(name, normalize_spec(spec)) for name, spec in default_specs()]
-    tabulate = _tabulate()
+    tabulate = _tabulate(args)
     with _progress_bar(sum(texel_count(s) for _, s in specs), args.quiet) as bar:
         for name, spec in specs:
             start = bar.n
@@ -202,9 +215,13 @@ def cmd_bake(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- info
 
 
+def _text(value) -> str:
+    return json.dumps(value) if isinstance(value, (dict, list)) else str(value)
+
+
 def _format_mapping(value) -> list[str]:
     if isinstance(value, dict):
-        return [f"  {k}: {v}" for k, v in value.items()]
+        return [f"  {k}: {_text(v)}" for k, v in value.items()]
     return [f"  {value}"]
 
 
@@ -222,7 +239,12 @@ def _info_lines(path: Path, table) -> list[str]:
     lines.append(f"channels: {', '.join(table.channels)}")
     lines.append("conventions:")
     lines.extend(_format_mapping(meta.get("conventions", "not recorded")))
-    lines.append(f"method: {meta.get('method', spec.get('method', 'not recorded'))}")
+    method = meta.get("method", spec.get("method", "not recorded"))
+    if isinstance(method, dict):
+        lines.append(f"method: {method.get('name', '')}".rstrip())
+        lines.extend(_format_mapping({k: v for k, v in method.items() if k != "name"}))
+    else:
+        lines.append(f"method: {method}")
     errors = table.max_error()
     lines.append("max error:")
     lines.extend([f"  {name}: {err:.3g}" for name, err in errors.items()] or ["  no error channels"])
