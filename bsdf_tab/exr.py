@@ -33,6 +33,7 @@ import json
 import math
 import os
 import tempfile
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -129,8 +130,8 @@ def write_exr(table: Table, path) -> None:
         raise FileNotFoundError(f"cannot write {path}: folder {folder} does not exist")
     if not table.channels:
         raise ValueError("cannot write a table without channels to EXR")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    os.close(fd)
+    # a fresh name created by OpenEXR itself, so the file gets the usual umask permissions
+    tmp = str(folder / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp")
     try:
         with OpenEXR.File(_header(table), _pixels(table)) as exr:
             exr.write(tmp)

@@ -1,6 +1,7 @@
 """Tests of bsdf_tab.table.Table and the EXR round trip in bsdf_tab.exr."""
 
 import json
+import os
 
 import numpy as np
 import OpenEXR
@@ -230,3 +231,12 @@ def test_write_into_missing_folder(tmp_path):
 def test_write_leaves_no_temp_files(tmp_path):
     make_table("2d").write_exr(tmp_path / "x.exr")
     assert [p.name for p in tmp_path.iterdir()] == ["x.exr"]
+
+
+def test_written_file_is_readable_by_others_under_default_umask(tmp_path):
+    old = os.umask(0o022)
+    try:
+        make_table("1d").write_exr(tmp_path / "x.exr")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "x.exr").stat().st_mode & 0o777 == 0o644
