@@ -42,7 +42,7 @@ import warp as wp
 from ..model.distribution import BECKMANN, lambda_cos
 from ..model.fresnel import fresnel, fresnel_dielectric
 from ..model.frame import expm1_, log1p_
-from ..model.shadowing import smith_G_over_cos_i_from_lambda
+from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
 
 # integrand families
 MODE_REFLECT = wp.constant(0)  # channel 0: int F G D (i.m)/mu     (albedo)
@@ -96,6 +96,10 @@ _WG = wp.constant(
     )
 )
 
+# cost caps per texel: rule applications of the outer v integral and of each inner phi piece
+_MAX_RULES_OUTER = wp.constant(600)
+_MAX_RULES_INNER = wp.constant(200)
+
 _PI = wp.constant(wp.float64(math.pi))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
 
@@ -145,13 +149,19 @@ def _integrand(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, p
     if p.mode == MODE_DIELECTRIC:
         k2 = one - (one - c * c) / (p.eta * p.eta)
         if k2 > zero:
-            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta
-            zt = (c / p.eta - wp.sqrt(k2)) * cm - p.mu / p.eta
+            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta, with c/eta - sqrt(k2)
+            # rationalized so that its sign is exact near eta = 1 (it is 0 at eta = 1)
+            d = (one / (p.eta * p.eta) - one) / (c / p.eta + wp.sqrt(k2))
+            zt = d * cm - p.mu / p.eta
+            g = zero
             if zt < zero:
                 azt = -zt
                 lt = lambda_cos(azt, p.alpha, p.dist)
                 g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azt, lt, p.shadowing) * jac
-                out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
+            elif d == zero and p.mu == zero:
+                # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
+                g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
+            out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
     return out
 
 
@@ -192,7 +202,11 @@ def _gk_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: w
 @wp.func
 def _adaptive_piece(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: wp.float64,
                     b: wp.float64, tol: wp.float64, max_depth: wp.int32):
-    """Locally adaptive G7-K15 over one phi piece; tol is the absolute target for the piece."""
+    """Locally adaptive G7-K15 over one phi piece; tol is the absolute target for the piece.
+
+    At most _MAX_RULES_INNER rule applications before the remaining intervals are accepted as
+    they are (their estimates still count), so the cost is bounded and the error honest.
+    """
     total = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     err = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     sa = _stackd()
@@ -202,14 +216,16 @@ def _adaptive_piece(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float
     sb[0] = wp.float64(1.0)
     sd[0] = 0
     n = int(1)
+    used = int(0)
     while n > 0:
         n -= 1
         ta = sa[n]
         tb = sb[n]
         depth = sd[n]
         k, e = _gk_phi(p, cm, sm, tm, a, b, ta, tb)
+        used += 1
         loc = tol * (tb - ta)
-        if (wp.max(e[0], e[1]) <= loc) or depth >= max_depth or n + 2 >= _STACK:
+        if (wp.max(e[0], e[1]) <= loc) or depth >= max_depth or n + 2 >= _STACK or used >= _MAX_RULES_INNER:
             total += k
             err += e
         else:
@@ -221,7 +237,7 @@ def _adaptive_piece(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float
             sb[n + 1] = mid
             sd[n + 1] = depth + 1
             n += 2
-    return total, err
+    return total, err, used
 
 
 @wp.func
@@ -248,7 +264,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
     if ss <= wp.float64(1.0e-300):
         # i.m does not depend on phi (normal incidence or m = n): constant integrand
         f = _integrand(p, cm, sm, tm, wp.float64(0.5) * pi)
-        return f * pi, err
+        return f * pi, err, int(1)
     c_min = p.mu * cm - ss
     c_max = p.mu * cm + ss
     cuts = _vec6d()
@@ -271,16 +287,18 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
             cuts = _insert_sorted(cuts, nc, _phi_of_c(cb, p, cm, sm))
             nc += 1
     a = zero
+    rules = int(0)
     for q in range(nc + 1):
         b = pi
         if q < nc:
             b = cuts[q]
         if b > a:
-            r, e = _adaptive_piece(p, cm, sm, tm, a, b, tol * (b - a) / pi, max_depth)
+            r, e, used = _adaptive_piece(p, cm, sm, tm, a, b, tol * (b - a) / pi, max_depth)
             total += r
             err += e
+            rules += used
         a = b
-    return total, err
+    return total, err, rules
 
 
 @wp.func
@@ -319,6 +337,7 @@ def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, ma
     rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    rules = int(0)
     for j in range(15):
         jj = j
         sgn = one
@@ -330,14 +349,15 @@ def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, ma
         cm = one / wp.sqrt(one + tm * tm)
         sm = tm * cm
         jac = wp.float64(2.0) * (one - v)
-        f, e = _inner(p, cm, sm, tm, tol_in / jac, max_depth)
+        f, e, used = _inner(p, cm, sm, tm, tol_in / jac, max_depth)
+        rules += used
         rk += _WGK[jj] * jac * f
         rg += _WG[jj] * jac * f
         ei += _WGK[jj] * jac * e
     rk = rk * hl
     rg = rg * hl
     d = rk - rg
-    return rk, wp.vec2d(wp.abs(d[0]), wp.abs(d[1])) + ei * hl
+    return rk, wp.vec2d(wp.abs(d[0]), wp.abs(d[1])) + ei * hl, rules
 
 
 @wp.func
@@ -371,6 +391,7 @@ def texel_kernel(
     max_depth_inner: wp.int32,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
+    cost: wp.array(dtype=wp.int32),
 ):
     tid = wp.tid()
     i = idx[tid]
@@ -395,6 +416,7 @@ def texel_kernel(
         value[i, 1] = r[1]
         error[i, 0] = zero
         error[i, 1] = zero
+        cost[i] = 1
         return
     # outer breakpoints in theta_m where the phi pieces change (module docstring)
     theta_i = wp.acos(mu)
@@ -448,14 +470,19 @@ def texel_kernel(
             sd[n] = 0
             n += 1
     span = v_end
+    used = int(0)
+    rules = int(0)
     while n > 0:
         n -= 1
         va = sa[n]
         vb = sb[n]
         depth = sd[n]
-        r, e = _gk_v(p, va, vb, tol_in, max_depth_inner)
+        r, e, inner_rules = _gk_v(p, va, vb, tol_in, max_depth_inner)
+        used += 1
+        rules += inner_rules
         loc = tol_out * (vb - va) / span
-        if (wp.max(e[0], e[1]) <= loc and depth > 0) or depth >= max_depth_outer or n + 2 >= _STACK:
+        done = wp.max(e[0], e[1]) <= loc and depth > 0
+        if done or depth >= max_depth_outer or n + 2 >= _STACK or used >= _MAX_RULES_OUTER:
             total += r
             err += e
         else:
@@ -471,6 +498,8 @@ def texel_kernel(
     value[i, 1] = total[1] / _PI
     error[i, 0] = err[0] / _PI
     error[i, 1] = err[1] / _PI
+    # integrand evaluations: 15 per inner rule application
+    cost[i] = rules * 15
 
 
 def integrate_texels(
@@ -490,7 +519,8 @@ def integrate_texels(
     progress=None,
     max_depth_outer: int = 30,
     max_depth_inner: int = 24,
-) -> tuple[np.ndarray, np.ndarray]:
+    return_cost: bool = False,
+):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
 
     Parameters
@@ -506,6 +536,8 @@ def integrate_texels(
     -------
     values, errors : ndarray, shape (N, 2)
         Channel 0 / 1 are (E, 0), (R, T) or (A, B); errors are the per-texel estimates.
+    cost : ndarray of int, shape (N,)
+        Integrand evaluations per texel (only with ``return_cost=True``).
     """
     from .parallel import resolve_device, run_chunks
 
@@ -521,6 +553,7 @@ def integrate_texels(
     eta_w = wp.array(eta, dtype=wp.float64, device=dev)
     value = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     error = wp.zeros((n, 2), dtype=wp.float64, device=dev)
+    cost = wp.zeros(n, dtype=wp.int32, device=dev)
 
     def launch(idx):
         wp.launch(
@@ -529,7 +562,7 @@ def integrate_texels(
             inputs=[
                 idx, mu_w, alpha_w, eta_w, MODES[mode], int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(max_depth_outer), int(max_depth_inner),
-                value, error,
+                value, error, cost,
             ],
             device=dev,
         )
@@ -537,4 +570,6 @@ def integrate_texels(
     # interleave the texels so that expensive ones (grazing mu) spread over the workers
     order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 else None
     run_chunks(n, launch, dev, workers=workers, progress=progress, order=order)
+    if return_cost:
+        return value.numpy(), error.numpy(), cost.numpy()
     return value.numpy(), error.numpy()

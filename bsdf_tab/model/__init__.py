@@ -31,6 +31,7 @@ from .shadowing import (
     smith_G,
     smith_G_over_cos_i,
     smith_G_over_cos_i_from_lambda,
+    smith_G_over_cos_i_equal,
 )
 from .fresnel import (
     FRESNEL_ONE,

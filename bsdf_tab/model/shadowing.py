@@ -36,6 +36,25 @@ def smith_G_over_cos_i_from_lambda(zi: Any, li: Any, zo: Any, lo: Any, shadowing
 
 
 @wp.func
+def smith_G_over_cos_i_equal(z: Any, l: Any, shadowing: wp.int32):
+    """G / z for two directions of the same |cos| = z (o = -i): the limit that stays finite at z = 0."""
+    zero = z * type(z)(0.0)
+    den = zero
+    num = type(z)(1.0)
+    if shadowing == CORRELATED:
+        # z / (z^2 + 2 l z) = 1 / (z + 2 l)
+        den = z + type(z)(2.0) * l
+    else:
+        # z / (z + l)^2
+        num = z
+        den = (z + l) * (z + l)
+    if den <= zero:
+        # alpha = 0 at grazing: mirror value G = 1, G / z unbounded; no finite answer
+        return zero
+    return num / den
+
+
+@wp.func
 def smith_G_over_cos_i(cos_i: Any, cos_o: Any, alpha: Any, dist: wp.int32, shadowing: wp.int32):
     """G(i, o) / |cos_i| without chi+ terms; finite as cos_i -> 0 (the integrators' form)."""
     zi = wp.abs(cos_i)
