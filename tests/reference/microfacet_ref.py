@@ -415,6 +415,9 @@ class _Texel:
                     return np.where(np.isfinite(r), r, 1e300)
 
                 scan(fun)
+        if self.c_split is not None and self.mu > 0 and self.mu < 2.0 * self.c_split:
+            # the TIR circle meets the horizon curve o.z = 0: the piece [p_s, p_max] closes
+            found.append(math.acos(self.mu / (2.0 * self.c_split)))
         if self.kind == "T" and self.eta < 1.0 and self.mu > 0:
             ctir = math.sqrt(1.0 - self.eta**2)
             if self.mu < ctir:
