@@ -267,6 +267,12 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 register_command("bake", "bake a spec file (or the default set) to EXR", _configure_bake, cmd_bake)
 register_command("info", "describe a table file", _configure_info, cmd_info)
+try:  # the HTTP service registers `serve` (service/cli.py); absent in a library-only install
+    from service.cli import register as _register_serve
+except ImportError:
+    pass
+else:
+    _register_serve(register_command)
 
 
 # --------------------------------------------------------------------------- main

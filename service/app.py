@@ -1,0 +1,78 @@
+"""The FastAPI app: ``create_app()`` wires settings, the table store, routes and error handlers.
+
+``uvicorn service.app:app`` serves the module-level :data:`app` (settings from ``BSDF_TAB_*``
+environment variables); ``bsdf-tab serve`` builds one with :func:`create_app` from its options.
+Nothing heavy happens at import: the cache folder is created and scanned on first use.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse
+
+from bsdf_tab import __version__
+
+from .compute import TableStore, quiet_warp
+from .errors import install_handlers
+from .routes import pages, tables
+from .settings import Settings
+
+__all__ = ["create_app", "app"]
+
+log = logging.getLogger("bsdf_tab.service")
+
+DESCRIPTION = """Microfacet BSDF lookup tables (albedo, dielectric R/T, DFG), computed with Warp kernels,
+cached by the canonical hash of their spec, returned as OpenEXR (default), NumPy or JSON.
+
+Errors are JSON `{"error": {"status", "code", "param", "query_param", "message", "allowed"}}`."""
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the service.
+
+    Parameters
+    ----------
+    settings : Settings, optional
+        Defaults to ``Settings()`` (environment variables ``BSDF_TAB_*``).
+    """
+    settings = settings or Settings()
+    quiet_warp()
+    store = TableStore(settings)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        warm = None
+        if settings.warmup:
+            loop = asyncio.get_running_loop()
+            warm = loop.run_in_executor(store.compute_pool, store.warmup)  # in the background
+        try:
+            yield
+        finally:
+            if warm is not None and not warm.done():
+                warm.cancel()
+            store.shutdown()
+
+    app = FastAPI(
+        title="bsdf-tab",
+        version=__version__,
+        description=DESCRIPTION,
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.store = store
+    install_handlers(app)
+    app.include_router(tables.router)
+    app.include_router(pages.router)
+
+    @app.get("/healthz", tags=["health"], summary="Liveness and counters (never waits on a computation)")
+    async def healthz(request: Request) -> JSONResponse:
+        return JSONResponse(store.health(), headers={"Cache-Control": "no-store"})
+
+    return app
+
+
+app = create_app()

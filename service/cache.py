@@ -1,0 +1,277 @@
+"""The table cache: content-addressed, atomic, checksummed, size-capped (LRU), single-flight.
+
+Keys
+----
+A table's key is ``<package version>-<spec_hash(normalized spec)>`` (:func:`table_key`), so a
+new release never serves an old release's numbers. One table has several *entries*: the
+``npz`` master (float64, lossless, what the integrator produced) and derived representations
+(``exr``, ``npy``, ``json``, ``info``, preview ``png`` variants) made from the master. An
+entry's file is ``<key>.<variant>`` in the cache folder.
+
+File format and where corruption is decided
+-------------------------------------------
+Every entry file is one header line and the payload::
+
+    BSDFTAB-CACHE 1 <sha256 hex of payload> <payload length>\\n<payload>
+
+:meth:`DiskCache.get` reads the file and checks the magic, the length and the SHA-256; any
+mismatch (truncated, bit-flipped, half-written, foreign file) counts as a miss, the file is
+deleted and the caller recomputes. A corrupt file is never served.
+
+Writes are atomic: the entry is written to a unique temporary file in the same folder,
+flushed and fsync'ed, then ``os.replace``-d onto its name; readers see the old file or the
+new one, never a partial one. Left-over temporaries (a crash mid-write) are removed at start-up.
+
+Size cap
+--------
+An in-memory index (name -> size, last use) is built by scanning the folder on first use
+(last use = the file's mtime) and kept up to date; every hit touches the file's mtime so the
+order survives restarts. After each write, least-recently-used entries are deleted until the
+total is under ``max_bytes``.
+
+Single flight
+-------------
+:class:`SingleFlight` runs one coroutine per key at a time: concurrent callers of the same
+key await the same task, so N simultaneous requests for one uncached table cause one
+computation and all get the same bytes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import os
+import re
+import threading
+import uuid
+from collections import OrderedDict
+from pathlib import Path
+from typing import Awaitable, Callable, TypeVar
+
+__all__ = ["DiskCache", "SingleFlight", "table_key", "MAGIC"]
+
+MAGIC = b"BSDFTAB-CACHE 1 "
+_HEADER_MAX = len(MAGIC) + 64 + 1 + 20 + 1
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,200}$")
+_TMP_SUFFIX = ".tmp"
+
+T = TypeVar("T")
+
+
+def table_key(spec_hash: str, version: str) -> str:
+    """Cache key of a table: package version + canonical spec hash (safe as a file name)."""
+    safe_version = re.sub(r"[^A-Za-z0-9.+]", "_", version)
+    return f"v{safe_version}-{spec_hash}"
+
+
+def _encode(payload: bytes) -> bytes:
+    digest = hashlib.sha256(payload).hexdigest().encode()
+    return MAGIC + digest + b" " + str(len(payload)).encode() + b"\n" + payload
+
+
+def _decode(data: bytes) -> bytes | None:
+    """The payload of an entry file, or None when the file is not intact."""
+    if not data.startswith(MAGIC):
+        return None
+    end = data.find(b"\n", 0, _HEADER_MAX)
+    if end < 0:
+        return None
+    fields = data[len(MAGIC) : end].split(b" ")
+    if len(fields) != 2 or len(fields[0]) != 64 or not fields[1].isdigit():
+        return None
+    payload = data[end + 1 :]
+    if len(payload) != int(fields[1]):
+        return None
+    if hashlib.sha256(payload).hexdigest().encode() != fields[0]:
+        return None
+    return payload
+
+
+class DiskCache:
+    """Checksummed entry files in one folder, with a size cap and LRU eviction.
+
+    Parameters
+    ----------
+    folder : path
+        The cache folder (created on first use).
+    max_bytes : int
+        Size cap of all entry files together; 0 disables storing.
+
+    Thread-safe: the index is guarded by a lock; file reads and writes happen outside it.
+    """
+
+    def __init__(self, folder: os.PathLike | str, max_bytes: int) -> None:
+        self.folder = Path(folder)
+        self.max_bytes = int(max_bytes)
+        self._lock = threading.Lock()
+        self._index: OrderedDict[str, int] | None = None  # name -> size, least recently used first
+        self._total = 0
+        self.stats = {"hits": 0, "misses": 0, "corrupt": 0, "writes": 0, "evictions": 0}
+
+    # ------------------------------------------------------------------ index
+
+    def _ensure_index(self) -> OrderedDict[str, int]:
+        if self._index is not None:
+            return self._index
+        with self._lock:
+            if self._index is not None:
+                return self._index
+            self.folder.mkdir(parents=True, exist_ok=True)
+            found = []
+            for entry in os.scandir(self.folder):
+                if not entry.is_file(follow_symlinks=False):
+                    continue
+                if entry.name.endswith(_TMP_SUFFIX):  # a write that never finished
+                    _unlink(entry.path)
+                    continue
+                if not _NAME_RE.match(entry.name):
+                    continue
+                st = entry.stat(follow_symlinks=False)
+                found.append((st.st_mtime, entry.name, st.st_size))
+            found.sort()
+            self._index = OrderedDict((name, size) for _, name, size in found)
+            self._total = sum(self._index.values())
+            return self._index
+
+    def _path(self, name: str) -> Path:
+        if not _NAME_RE.match(name):
+            raise ValueError(f"bad cache entry name {name!r}")
+        return self.folder / name
+
+    # ------------------------------------------------------------------ public
+
+    def get(self, name: str) -> bytes | None:
+        """The payload of entry ``name``, or None if absent or not intact (then it is deleted)."""
+        index = self._ensure_index()
+        path = self._path(name)
+        try:
+            data = path.read_bytes()
+        except (FileNotFoundError, IsADirectoryError, PermissionError):
+            with self._lock:
+                self._forget(name)
+                self.stats["misses"] += 1
+            return None
+        payload = _decode(data)
+        if payload is None:
+            _unlink(path)
+            with self._lock:
+                self._forget(name)
+                self.stats["corrupt"] += 1
+                self.stats["misses"] += 1
+            return None
+        with self._lock:
+            if name not in index:  # written by another process sharing the folder
+                index[name] = len(data)
+                self._total += len(data)
+            index.move_to_end(name)
+            self.stats["hits"] += 1
+        try:
+            os.utime(path)
+        except OSError:
+            pass
+        return payload
+
+    def put(self, name: str, payload: bytes) -> None:
+        """Store ``payload`` as entry ``name`` atomically, then evict down to the size cap."""
+        index = self._ensure_index()
+        data = _encode(payload)
+        if self.max_bytes <= 0 or len(data) > self.max_bytes:
+            return
+        path = self._path(name)
+        tmp = self.folder / f".{name}.{os.getpid()}.{uuid.uuid4().hex}{_TMP_SUFFIX}"
+        try:
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        finally:
+            _unlink(tmp)
+        with self._lock:
+            self._forget(name)
+            index[name] = len(data)
+            self._total += len(data)
+            self.stats["writes"] += 1
+            victims = []
+            while self._total > self.max_bytes and len(index) > 1:
+                victim, size = index.popitem(last=False)
+                self._total -= size
+                victims.append(victim)
+            self.stats["evictions"] += len(victims)
+        for victim in victims:
+            _unlink(self.folder / victim)
+
+    def delete(self, name: str) -> None:
+        """Remove entry ``name`` if present."""
+        self._ensure_index()
+        _unlink(self._path(name))
+        with self._lock:
+            self._forget(name)
+
+    def _forget(self, name: str) -> None:  # call with the lock held
+        size = self._index.pop(name, None) if self._index is not None else None
+        if size is not None:
+            self._total -= size
+
+    @property
+    def total_bytes(self) -> int:
+        self._ensure_index()
+        return self._total
+
+    def __len__(self) -> int:
+        return len(self._ensure_index())
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._ensure_index()
+
+    def summary(self) -> dict:
+        """Entries, bytes, cap and hit/miss counters (for /healthz)."""
+        return {
+            "entries": len(self),
+            "bytes": self.total_bytes,
+            "max_bytes": self.max_bytes,
+            **self.stats,
+        }
+
+
+def _unlink(path) -> None:
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+    except OSError:
+        pass
+
+
+class SingleFlight:
+    """At most one running task per key; concurrent callers share its result.
+
+    The task is shielded from the callers' cancellation (a client that disconnects does not
+    cancel the computation others wait for). Results are not kept: once the task is done the
+    key is free again, and the next call starts afresh (normally a cache hit).
+    """
+
+    def __init__(self) -> None:
+        self._tasks: dict[str, asyncio.Task] = {}
+        self.started = 0
+
+    def __len__(self) -> int:
+        return len(self._tasks)
+
+    def pending(self, key: str) -> bool:
+        return key in self._tasks
+
+    async def run(self, key: str, factory: Callable[[], Awaitable[T]]) -> T:
+        task = self._tasks.get(key)
+        if task is None:
+            task = asyncio.ensure_future(factory())
+            self.started += 1
+            self._tasks[key] = task
+            task.add_done_callback(lambda t, key=key: self._done(key, t))
+        return await asyncio.shield(task)
+
+    def _done(self, key: str, task: asyncio.Task) -> None:
+        if self._tasks.get(key) is task:
+            del self._tasks[key]
+        if not task.cancelled():
+            task.exception()  # mark retrieved: every waiter already got it

@@ -1,0 +1,50 @@
+"""``bsdf-tab serve``: registered into the library's CLI (imports nothing heavy until run)."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register"]
+
+
+def _configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--host", default=None, help="interface to listen on (default 127.0.0.1, or BSDF_TAB_HOST)")
+    parser.add_argument("--port", type=int, default=None, help="port (default 8000, or BSDF_TAB_PORT)")
+    parser.add_argument("--cache-dir", default=None, help="cache folder (default ~/.cache/bsdf-tab/service)")
+    parser.add_argument("--workers", type=int, default=None, help="CPU threads per computation (default: all)")
+    parser.add_argument("--max-concurrent", type=int, default=None, help="computations at a time (default 1)")
+    parser.add_argument("--max-texels", type=int, default=None, help="largest table served (default 262144)")
+    parser.add_argument("--no-warmup", action="store_true", help="do not load the Warp kernels at start-up")
+    parser.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
+
+
+def _serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from .app import create_app
+    from .settings import Settings
+
+    overrides = {
+        "host": args.host,
+        "port": args.port,
+        "cache_dir": args.cache_dir,
+        "workers": args.workers,
+        "max_concurrent": args.max_concurrent,
+        "max_texels": args.max_texels,
+    }
+    if args.no_warmup:
+        overrides["warmup"] = False
+    try:
+        settings = Settings(**{k: v for k, v in overrides.items() if v is not None})
+    except ValueError as exc:  # pydantic ValidationError: one line per field
+        errors = getattr(exc, "errors", lambda: [])()
+        text = "; ".join(f"--{'-'.join(str(x) for x in e['loc']).replace('_', '-')}: {e['msg']}" for e in errors)
+        raise ValueError(text or str(exc)) from None
+    app = create_app(settings)
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level=args.log_level)
+    return 0
+
+
+def register(register_command) -> None:
+    """Add ``serve`` to the ``bsdf-tab`` command (``register_command`` from :mod:`bsdf_tab.cli`)."""
+    register_command("serve", "run the HTTP service (FastAPI on uvicorn)", _configure, _serve)

@@ -1,0 +1,1 @@
+"""HTTP routes: :mod:`.tables` (the API) and :mod:`.pages` (the HTML page)."""

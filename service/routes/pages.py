@@ -1,0 +1,195 @@
+"""``GET /``: the HTML page for people: catalog, a form, the preview, max error, conventions.
+
+Rendered on the server (no script needed to see the result): the form submits to ``/`` with
+the same query parameters as ``GET /tables/{table}`` plus ``table``, ``channel``, ``slice``;
+the page computes the table through the same cache and shows
+``/tables/{table}/preview.png?...`` next to the table's max error and conventions.
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+from pathlib import Path
+from string import Template
+from urllib.parse import urlencode
+
+from fastapi import APIRouter, Request
+from fastapi.responses import HTMLResponse
+
+from bsdf_tab import __version__
+from bsdf_tab.errors import SpecError
+from bsdf_tab.spec import (
+    AXIS_DEFAULTS,
+    DISTRIBUTIONS,
+    FRESNEL_TYPES,
+    NODES,
+    ROUGHNESS_SLOT,
+    SHADOWINGS,
+    SPACINGS,
+    TABLE_KINDS,
+    channel_names,
+)
+
+from ..errors import ServiceError, from_spec_error, query_param_for
+from ..params import FRESNEL_PARAMS, spec_from_query
+from ..preview import check_preview
+from .tables import store_of
+
+router = APIRouter(tags=["pages"])
+
+_TEMPLATE = Template((Path(__file__).resolve().parent.parent / "templates" / "index.html").read_text(encoding="utf-8"))
+DEFAULT_TABLE = "albedo"
+PAGE_EXTRA = ("table", "channel", "slice", "slice_axis")
+
+
+def _select(name: str, options, current: str | None, blank: str | None = None, attrs: str = "") -> str:
+    opts = []
+    if blank is not None:
+        opts.append(f'<option value="">{escape(blank)}</option>')
+    for o in options:
+        sel = " selected" if o == current else ""
+        opts.append(f'<option value="{escape(o)}"{sel}>{escape(o)}</option>')
+    return f'<select name="{escape(name)}" id="f-{escape(name)}"{attrs}>{"".join(opts)}</select>'
+
+
+def _input(name: str, value: str | None, placeholder: str = "") -> str:
+    return (
+        f'<input name="{escape(name)}" id="f-{escape(name)}" value="{escape(value or "")}"'
+        f' placeholder="{escape(placeholder)}">'
+    )
+
+
+def _label(text: str, control: str) -> str:
+    return f"      <label>{escape(text)} {control}</label>"
+
+
+def _axis_names_for(kind: str, given: dict) -> list[str]:
+    rough = "roughness" if any(k == "roughness" or k.startswith("roughness_") for k in given) else "alpha"
+    return [rough if n == ROUGHNESS_SLOT else n for n in TABLE_KINDS[kind]["axes"]]
+
+
+def _form(kind: str, q: dict) -> str:
+    change = " onchange=\"location.href='/?table='+encodeURIComponent(this.value)\""
+    rows = ["    <fieldset><legend>table</legend>", _label("table", _select("table", list(TABLE_KINDS), kind, attrs=change))]
+    rows.append(_label("distribution", _select("distribution", sorted(DISTRIBUTIONS), q.get("distribution"), "ggx (default)")))
+    rows.append(_label("shadowing", _select("shadowing", sorted(SHADOWINGS), q.get("shadowing"), "correlated (default)")))
+    rows.append(_label("tolerance", _input("tolerance", q.get("tolerance"), "5e-07 (default)")))
+    rows.append("    </fieldset>")
+    if TABLE_KINDS[kind]["fresnel"] == "any":
+        rows.append("    <fieldset><legend>Fresnel</legend>")
+        rows.append(_label("type", _select("fresnel", sorted(FRESNEL_TYPES), q.get("fresnel"), "one (default)")))
+        for p in FRESNEL_PARAMS:
+            rows.append(_label(p, _input(f"fresnel_{p}", q.get(f"fresnel_{p}"), {"f0": "schlick", "eta": "dielectric/conductor", "k": "conductor"}.get(p, ""))))
+        rows.append("    </fieldset>")
+    for axis in _axis_names_for(kind, q):
+        d = AXIS_DEFAULTS[axis]
+        rows.append(f"    <fieldset><legend>axis {escape(axis)}</legend>")
+        rows.append(_label("values", _input(axis, q.get(axis), "explicit, e.g. 0.1,0.5,1")))
+        rows.append(_label("size", _input(f"{axis}_size", q.get(f"{axis}_size"), str(d["size"]))))
+        rows.append(_label("spacing", _select(f"{axis}_spacing", list(SPACINGS), q.get(f"{axis}_spacing"), f"{d['spacing']} (default)")))
+        rows.append(_label("nodes", _select(f"{axis}_nodes", list(NODES), q.get(f"{axis}_nodes"), f"{d['nodes']} (default)")))
+        rows.append(_label("min", _input(f"{axis}_min", q.get(f"{axis}_min"), f"{d['range'][0]:g}")))
+        rows.append(_label("max", _input(f"{axis}_max", q.get(f"{axis}_max"), f"{d['range'][1]:g}")))
+        rows.append("    </fieldset>")
+    rows.append("    <fieldset><legend>preview</legend>")
+    rows.append(_label("channel", _select("channel", channel_names(kind, errors=True), q.get("channel"))))
+    if len(TABLE_KINDS[kind]["axes"]) == 3:
+        rows.append(_label("slice", _input("slice", q.get("slice"), f"index along {TABLE_KINDS[kind]['axes'][-1]} (middle)")))
+    rows.append("    </fieldset>")
+    return "\n".join(rows)
+
+
+def _catalog_rows() -> str:
+    rows = []
+    for kind, info in TABLE_KINDS.items():
+        axes = ", ".join("alpha|roughness" if a == ROUGHNESS_SLOT else a for a in info["axes"])
+        rows.append(
+            f'    <tr><td><a href="/?table={escape(kind)}">{escape(kind)}</a></td><td>{escape(axes)}</td>'
+            f"<td>{escape(', '.join(info['channels']))}</td><td>{escape(info['description'])}</td></tr>"
+        )
+    return "\n".join(rows)
+
+
+def _dl(items: dict) -> str:
+    out = []
+    for k, v in items.items():
+        text = v if isinstance(v, str) else json.dumps(v)
+        out.append(f"<dt>{escape(str(k))}</dt><dd>{escape(text)}</dd>")
+    return "<dl>" + "".join(out) + "</dl>"
+
+
+def _result(kind: str, query: str, preview_query: str, info: dict) -> str:
+    errors = info.get("max_error") or {}
+    err_text = ", ".join(f"{k}: {v:.3g}" if v is not None else f"{k}: n/a" for k, v in errors.items()) or "n/a"
+    method = info.get("method") or {}
+    base = f"/tables/{kind}" + (f"?{query}" if query else "")
+    sep = "&amp;" if query else "?"
+    links = " ".join(
+        f'<a href="{escape(base)}{sep}format={f}">{f.upper()}</a>' for f in ("exr", "npz", "npy", "json")
+    ) + f' <a href="/tables/{escape(kind)}/info{escape("?" + query if query else "")}">info</a>'
+    shape = " x ".join(f"{n} {a['size']}" for n, a in info.get("axes", {}).items())
+    img_src = f"/tables/{kind}/preview.png" + (f"?{preview_query}" if preview_query else "")
+    return f"""<section class="result" id="result">
+  <figure style="margin:0"><img id="preview" src="{escape(img_src)}" alt="preview of the {escape(kind)} table" width="640" height="480"></figure>
+  <div>
+    <h2>{escape(kind)}: {escape(shape)}</h2>
+    <p>max error estimate: <span class="maxerr" id="max-error">{escape(err_text)}</span></p>
+    <p>download: {links}</p>
+    <h2>conventions</h2>
+    {_dl(info.get("conventions") or {})}
+    <h2 style="margin-top:8px">method</h2>
+    {_dl({k: v for k, v in method.items()})}
+  </div>
+</section>"""
+
+
+def _error_box(exc: ServiceError) -> str:
+    where = exc.query_param or query_param_for(exc.param) or exc.param or "request"
+    allowed = f"<p>allowed: <code>{escape(json.dumps(exc.allowed))}</code></p>" if exc.allowed is not None else ""
+    return (
+        f'<section class="error" id="error"><h2>Cannot show this table</h2>'
+        f"<p><b>{escape(str(where))}</b>: {escape(exc.message)}</p>{allowed}</section>"
+    )
+
+
+@router.get("/", response_class=HTMLResponse, summary="HTML page: catalog, form, preview")
+async def index(request: Request) -> HTMLResponse:
+    items = [(k, v) for k, v in request.query_params.multi_items() if v.strip() != ""]
+    q = dict(items)
+    kind = q.get("table", DEFAULT_TABLE)
+    status = 200
+    if kind not in TABLE_KINDS:
+        result = _error_box(ServiceError(404, "unknown_table", f"unknown table {kind[:60]!r}", param="table",
+                                         allowed=list(TABLE_KINDS)))
+        kind, status = DEFAULT_TABLE, 404
+    else:
+        try:
+            result = await _render_result(request, kind, items)
+        except ServiceError as exc:
+            result, status = _error_box(exc), exc.status
+        except SpecError as exc:
+            err = from_spec_error(exc)
+            result, status = _error_box(err), err.status
+    html = _TEMPLATE.safe_substitute(
+        title=escape(kind),
+        version=escape(__version__),
+        form=_form(kind, q),
+        result=result,
+        catalog=_catalog_rows(),
+        max_texels=str(request.app.state.settings.max_texels),
+    )
+    return HTMLResponse(html, status_code=status)
+
+
+async def _render_result(request: Request, kind: str, items: list[tuple[str, str]]) -> str:
+    spec_items = [(k, v) for k, v in items if k not in PAGE_EXTRA]
+    spec, _ = spec_from_query(kind, spec_items)
+    extra = {k: v for k, v in items if k in PAGE_EXTRA}
+    store = store_of(request)
+    prep = store.prepare(spec)
+    check_preview(prep.axes, channel_names(kind, errors=True), extra.get("channel"), None, extra.get("slice"))
+    info = json.loads(await store.variant(prep, "info"))
+    query = urlencode(spec_items)
+    preview_query = urlencode(spec_items + [(k, extra[k]) for k in ("channel", "slice") if k in extra])
+    return _result(kind, query, preview_query, info)

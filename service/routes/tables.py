@@ -1,0 +1,190 @@
+"""Table endpoints: the catalog, a table by query or by spec, its metadata and preview."""
+
+from __future__ import annotations
+
+import json
+
+from fastapi import APIRouter, Request
+from fastapi.responses import JSONResponse, Response
+
+from bsdf_tab.spec import TABLE_KINDS, channel_names
+
+from ..compute import Prepared, TableStore
+from ..errors import ServiceError
+from ..params import (
+    FORMAT_PARAM,
+    MEDIA_TYPES,
+    _p,
+    catalog,
+    negotiate,
+    only_params,
+    query_parameters,
+    spec_from_query,
+    spec_json_schema,
+)
+from ..preview import check_preview, render_png
+
+router = APIRouter(tags=["tables"])
+
+_ERR = {"content": {"application/json": {}}}
+_TABLE_RESPONSES = {
+    200: {
+        "description": "the table (EXR by default)",
+        "content": {t: {"schema": {"type": "string", "format": "binary"}} for t in MEDIA_TYPES.values()},
+    },
+    304: {"description": "not modified (If-None-Match matched the ETag)"},
+    400: {"description": "invalid parameter (the error names it)", **_ERR},
+    404: {"description": "unknown table", **_ERR},
+    406: {"description": "unsupported format", **_ERR},
+    413: {"description": "too many texels / body too large", **_ERR},
+    503: {"description": "too many computations queued; retry later", **_ERR},
+}
+PREVIEW_PARAMS = [
+    _p("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
+    _p("slice", {"type": "integer"}, "3-D tables: index along slice_axis (default: the middle)"),
+    _p("slice_axis", {"type": "string"}, "3-D tables: the axis held fixed (default: the last axis)"),
+]
+
+
+def store_of(request: Request) -> TableStore:
+    return request.app.state.store
+
+
+def _check_table(table: str) -> None:
+    if table not in TABLE_KINDS:
+        raise ServiceError(404, "unknown_table", f"unknown table {table[:60]!r}", param="table", allowed=list(TABLE_KINDS))
+
+
+def etag_matches(request: Request, etag: str) -> bool:
+    """Weak comparison of ``If-None-Match`` with ``etag`` (RFC 9110 13.1.2)."""
+    header = request.headers.get("if-none-match")
+    if not header:
+        return False
+    if header.strip() == "*":
+        return True
+    tags = [t.strip() for t in header.split(",")]
+    return any((t[2:] if t.startswith("W/") else t) == etag for t in tags)
+
+
+def _headers(request: Request, prep: Prepared, variant: str, vary: bool) -> dict:
+    max_age = request.app.state.settings.cache_max_age
+    headers = {
+        "ETag": f'"{prep.key}.{variant}"',
+        "Cache-Control": f"public, max-age={max_age}, immutable",
+        "X-BSDF-Tab-Key": prep.key,
+    }
+    if vary:
+        headers["Vary"] = "Accept"
+    return headers
+
+
+async def send_variant(request: Request, prep: Prepared, variant: str, media_type: str, *, vary: bool = False,
+                       derive=None, filename: str | None = None) -> Response:
+    """The response for one representation, with ETag / 304 / Cache-Control."""
+    headers = _headers(request, prep, variant, vary)
+    if filename:
+        disposition = "inline" if variant in ("json",) else "attachment"
+        headers["Content-Disposition"] = f'{disposition}; filename="{filename}"'
+    if etag_matches(request, headers["ETag"]):
+        return Response(status_code=304, headers=headers)
+    body = await store_of(request).variant(prep, variant, derive=derive)
+    return Response(body, media_type=media_type, headers=headers)
+
+
+async def send_table(request: Request, spec: dict, fmt_param: str | None) -> Response:
+    fmt = negotiate(fmt_param, request.headers.get("accept"))
+    prep = store_of(request).prepare(spec)
+    filename = f"{prep.kind}-{prep.key.rsplit('-', 1)[-1][:12]}.{fmt}"
+    response = await send_variant(request, prep, fmt, MEDIA_TYPES[fmt], vary=fmt_param is None, filename=filename)
+    response.headers["X-BSDF-Tab-Axes"] = ",".join(prep.axes)
+    return response
+
+
+@router.get("/tables", summary="Catalog: tables, parameters, types, ranges, defaults, limits")
+async def get_catalog(request: Request) -> JSONResponse:
+    return JSONResponse(catalog(request.app.state.settings))
+
+
+@router.head("/tables/{table}", include_in_schema=False)
+@router.get(
+    "/tables/{table}",
+    summary="A table by query parameters",
+    description=(
+        "Axes: `A=v0,v1,...` (explicit) or `A_size=N&A_spacing=linear|square&A_nodes=endpoints|centers"
+        "&A_min=LO&A_max=HI` per axis A of the table; Fresnel: `fresnel=schlick&fresnel_f0=0.04`. "
+        "Format: `format=exr|npz|npy|json` or an Accept header (EXR by default)."
+    ),
+    responses=_TABLE_RESPONSES,
+    openapi_extra={"parameters": query_parameters([FORMAT_PARAM])},
+)
+async def get_table(table: str, request: Request) -> Response:
+    _check_table(table)
+    spec, extra = spec_from_query(table, request.query_params.multi_items(), extra=("format",))
+    return await send_table(request, spec, extra.get("format"))
+
+
+@router.post(
+    "/tables",
+    summary="A table by spec (JSON body)",
+    responses=_TABLE_RESPONSES,
+    openapi_extra={
+        "parameters": [FORMAT_PARAM],
+        "requestBody": {"required": True, "content": {"application/json": {"schema": spec_json_schema()}}},
+    },
+)
+async def post_table(request: Request) -> Response:
+    extra = only_params(request.query_params.multi_items(), ("format",))
+    fmt = negotiate(extra.get("format"), request.headers.get("accept"))  # 406 before reading the body
+    spec = await read_json_body(request)
+    return await send_table(request, spec, fmt if "format" in extra else None)
+
+
+async def read_json_body(request: Request):
+    limit = request.app.state.settings.max_body_bytes
+    declared = request.headers.get("content-length")
+    if declared and declared.isdigit() and int(declared) > limit:
+        raise ServiceError(413, "body_too_large", f"the body has {declared} bytes; at most {limit}", param="body",
+                           allowed={"max_body_bytes": limit})
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > limit:
+            raise ServiceError(413, "body_too_large", f"the body is larger than {limit} bytes", param="body",
+                               allowed={"max_body_bytes": limit})
+        chunks.append(chunk)
+    raw = b"".join(chunks)
+    if not raw.strip():
+        raise ServiceError(400, "invalid_body", "the body must be a spec JSON object, got an empty body", param="body")
+    try:
+        return json.loads(raw)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, bad UTF-8, too-deep nesting
+        raise ServiceError(400, "invalid_body", f"the body is not valid JSON: {str(exc)[:200]}", param="body") from None
+
+
+@router.get(
+    "/tables/{table}/info",
+    summary="Table metadata: spec, conventions, method, max error (computes the table if needed)",
+    responses={k: v for k, v in _TABLE_RESPONSES.items() if k != 406},
+    openapi_extra={"parameters": query_parameters()},
+)
+async def get_info(table: str, request: Request) -> Response:
+    _check_table(table)
+    spec, _ = spec_from_query(table, request.query_params.multi_items())
+    prep = store_of(request).prepare(spec)
+    return await send_variant(request, prep, "info", "application/json")
+
+
+@router.get(
+    "/tables/{table}/preview.png",
+    summary="Heatmap PNG of one channel (3-D tables: one slice)",
+    responses={200: {"content": {"image/png": {}}}, **{k: v for k, v in _TABLE_RESPONSES.items() if k not in (200, 406)}},
+    openapi_extra={"parameters": query_parameters(PREVIEW_PARAMS)},
+)
+async def get_preview(table: str, request: Request) -> Response:
+    _check_table(table)
+    spec, extra = spec_from_query(table, request.query_params.multi_items(), extra=("channel", "slice", "slice_axis"))
+    prep = store_of(request).prepare(spec)
+    params = check_preview(prep.axes, channel_names(table, errors=True), extra.get("channel"),
+                           extra.get("slice_axis"), extra.get("slice"))
+    return await send_variant(request, prep, params.variant, "image/png",
+                              derive=lambda t: render_png(t, params))
