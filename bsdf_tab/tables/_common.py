@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..integrate import integrate_texels
+from ..integrate import get_method
 from ..model import (
     BECKMANN,
     CORRELATED,
@@ -63,7 +63,9 @@ def integrator_params(nspec: dict) -> dict:
         ftype, p0 = FRESNEL_DIELECTRIC, fres["eta"]
     elif fres["type"] == "conductor":
         ftype, p0, p1 = FRESNEL_CONDUCTOR, fres["eta"], fres["k"]
+    extra = {"effort": nspec["effort"]} if nspec.get("effort") is not None else {}
     return {
+        **extra,
         "dist": int(_DIST[nspec["distribution"]]),
         "shadowing": int(_SHADOWING[nspec["shadowing"]]),
         "ftype": int(ftype),
@@ -80,7 +82,7 @@ def run_grid(mode: str, nspec: dict, axes: dict, ctx: Context, eta_axis: np.ndar
     grids = np.meshgrid(mu, alpha, *([eta_axis] if eta_axis is not None else []), indexing="ij")
     shape = grids[0].shape
     ctx.expect(grids[0].size)
-    values, errors = integrate_texels(
+    values, errors = get_method(nspec["method"])(
         mode,
         grids[0].ravel(),
         grids[1].ravel(),
@@ -155,7 +157,7 @@ def mu_average(
         w = 0.5 * (w0 + w1) + half * GK_X[None, :]
         mu = w * w
         ctx.expect(mu.size)
-        vals, errs = integrate_texels(
+        vals, errs = get_method(nspec["method"])(
             mode, mu.ravel(), np.repeat(alpha[ks], GK_X.size), np.repeat(eta[ks], GK_X.size),
             device=ctx.device, workers=ctx.workers, progress=ctx.reporter(), **params,
         )
