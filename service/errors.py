@@ -89,7 +89,7 @@ def error_body(status: int, code: str, message: str, param=None, allowed=None, q
 
 def from_spec_error(exc: SpecError) -> ServiceError:
     status, code = 400, "invalid_parameter"
-    if exc.param == "table" and "must be one of" in exc.message:
+    if exc.param == "table" and exc.message.startswith("must be one of"):
         status, code = 404, "unknown_table"
     return ServiceError(status, code, exc.message, param=exc.param)
 

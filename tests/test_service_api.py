@@ -1,0 +1,317 @@
+"""HTTP service: every endpoint and every error, through FastAPI's TestClient (tiny tables)."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+from fastapi.testclient import TestClient  # noqa: E402
+
+from bsdf_tab import Table, normalize_spec, spec_hash, __version__  # noqa: E402
+from bsdf_tab.exr import read_exr_bytes  # noqa: E402
+from service.app import create_app  # noqa: E402
+from service.settings import Settings  # noqa: E402
+
+SMALL = "mu=0.2,0.6,1&alpha_size=3"
+SMALL_SPEC = {"table": "albedo", "axes": {"mu": [0.2, 0.6, 1.0], "alpha": {"size": 3}}}
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    settings = Settings(
+        cache_dir=tmp_path_factory.mktemp("svc-cache"), warmup=False, max_texels=64, max_body_bytes=2048, workers=2
+    )
+    with TestClient(create_app(settings)) as c:
+        yield c
+
+
+def err(r, status, param=None, query_param=None):
+    assert r.status_code == status, r.text
+    assert r.headers["content-type"].startswith("application/json")
+    body = r.json()["error"]
+    assert body["status"] == status and body["message"]
+    if param is not None:
+        assert body["param"] == param, body
+    if query_param is not None:
+        assert body.get("query_param") == query_param, body
+    return body
+
+
+# ------------------------------------------------------------------ catalog, health, docs
+
+
+def test_healthz(client):
+    r = client.get("/healthz")
+    assert r.status_code == 200
+    h = r.json()
+    assert h["status"] == "ok" and h["version"] == __version__
+    assert {"computations", "computing", "queued", "cache"} <= set(h)
+    assert r.headers["cache-control"] == "no-store"
+
+
+def test_catalog_lists_tables_params_ranges_defaults_limits(client):
+    cat = client.get("/tables").json()
+    assert set(cat["tables"]) == {"albedo", "albedo_avg", "dielectric", "dielectric_avg", "dfg"}
+    albedo = cat["tables"]["albedo"]
+    assert [a["name"] for a in albedo["axes"]] == ["mu", "alpha"]
+    mu = albedo["axes"][0]
+    assert mu["domain"]["min"] == 0.0 and mu["domain"]["max"] == 1.0
+    assert mu["default"]["size"] == 32
+    assert albedo["channels"] == ["E"] and albedo["error_channels"] == ["E_err"]
+    assert cat["parameters"]["distribution"]["enum"] == ["beckmann", "ggx"]
+    assert cat["parameters"]["tolerance"]["default"] > 0
+    assert cat["limits"]["max_texels"] == 64
+    assert cat["tables"]["dielectric"]["fresnel"]["types"] == ["dielectric"]
+
+
+def test_openapi_and_docs(client):
+    schema = client.get("/openapi.json").json()
+    params = {p["name"] for p in schema["paths"]["/tables/{table}"]["get"]["parameters"]}
+    assert {"table", "mu", "mu_size", "alpha_spacing", "fresnel", "fresnel_f0", "format"} <= params
+    assert "requestBody" in schema["paths"]["/tables"]["post"]
+    docs = client.get("/docs")
+    assert docs.status_code == 200 and "swagger" in docs.text.lower()
+
+
+# ------------------------------------------------------------------ tables
+
+
+def test_get_table_exr_by_default(client):
+    r = client.get(f"/tables/albedo?{SMALL}")
+    assert r.status_code == 200
+    assert r.headers["content-type"] == "image/x-exr"
+    assert int(r.headers["content-length"]) == len(r.content)
+    assert r.content[:4] == b"\x76\x2f\x31\x01"
+    table = read_exr_bytes(r.content)
+    assert table.shape == (3, 3)
+    np.testing.assert_array_equal(table.axes["mu"], [0.2, 0.6, 1.0])
+    assert 0.0 < float(table.channels["E"].min()) and float(table.channels["E"].max()) <= 1.0 + 1e-6
+    key = f"v{__version__}-{spec_hash(normalize_spec(SMALL_SPEC))}"
+    assert r.headers["etag"] == f'"{key}.exr"'
+    assert "max-age" in r.headers["cache-control"] and "public" in r.headers["cache-control"]
+    assert r.headers["vary"] == "Accept"
+    assert r.headers["x-bsdf-tab-axes"] == "mu,alpha"
+
+
+@pytest.mark.parametrize(
+    "how, fmt, ctype",
+    [
+        ("format=npz", "npz", "application/x-npz"),
+        ("format=npy", "npy", "application/x-npy"),
+        ("format=json", "json", "application/json"),
+        ("accept:application/json", "json", "application/json"),
+        ("accept:application/x-npz", "npz", "application/x-npz"),
+        ("accept:application/x-npy;q=0.9, image/x-exr;q=0.5", "npy", "application/x-npy"),
+        ("accept:text/html, */*;q=0.1", "exr", "image/x-exr"),
+    ],
+)
+def test_formats_by_query_or_accept(client, how, fmt, ctype):
+    if how.startswith("accept:"):
+        r = client.get(f"/tables/albedo?{SMALL}", headers={"Accept": how[7:]})
+    else:
+        r = client.get(f"/tables/albedo?{SMALL}&{how}")
+    assert r.status_code == 200, r.text
+    assert r.headers["content-type"] == ctype
+    assert r.headers["etag"].endswith(f'.{fmt}"')
+    if fmt == "npz":
+        t = Table.from_npz_bytes(r.content)
+        assert t.shape == (3, 3) and t.meta["spec"]["table"] == "albedo"
+    elif fmt == "npy":
+        arr = np.load(io.BytesIO(r.content), allow_pickle=False)
+        assert arr.shape == (3, 3) and arr.dtype.names == ("E", "E_err")
+    elif fmt == "json":
+        d = r.json()
+        assert d["shape"] == [3, 3] and d["axes"]["mu"] == [0.2, 0.6, 1.0] and "E" in d["channels"]
+        assert d["meta"]["conventions"]["distribution"] == "ggx"
+
+
+def test_formats_agree(client):
+    exr = read_exr_bytes(client.get(f"/tables/albedo?{SMALL}").content)
+    npz = Table.from_npz_bytes(client.get(f"/tables/albedo?{SMALL}&format=npz").content)
+    js = client.get(f"/tables/albedo?{SMALL}&format=json").json()
+    np.testing.assert_array_equal(exr.channels["E"], npz.channels["E"].astype(np.float32))
+    np.testing.assert_array_equal(np.asarray(js["channels"]["E"]), npz.channels["E"])
+
+
+def test_post_spec_equals_get_query(client):
+    r_get = client.get(f"/tables/albedo?{SMALL}&format=npz")
+    r_post = client.post("/tables?format=npz", json=SMALL_SPEC)
+    assert r_post.status_code == 200
+    assert r_post.content == r_get.content
+    assert r_post.headers["etag"] == r_get.headers["etag"]
+    # spelling differences (defaults given, key order) are the same table
+    spelled = {"axes": {"alpha": {"size": 3, "spacing": "linear"}, "mu": [0.2, 0.6, 1]}, "distribution": "ggx", "table": "albedo"}
+    assert client.post("/tables?format=npz", json=spelled).headers["etag"] == r_get.headers["etag"]
+
+
+def test_query_scheme_resolution_and_fresnel(client):
+    r = client.get(
+        "/tables/albedo?mu_size=3&mu_spacing=square&mu_nodes=centers&mu_min=0.1&mu_max=0.9"
+        "&roughness=0.3,0.7&fresnel=conductor&fresnel_eta=0.2&fresnel_k=3&distribution=beckmann"
+        "&shadowing=separable&tolerance=1e-5&format=json"
+    )
+    assert r.status_code == 200, r.text
+    spec = r.json()["meta"]["spec"]
+    assert spec["axes"]["mu"] == {"size": 3, "spacing": "square", "nodes": "centers", "range": [0.1, 0.9], "clamp": None}
+    assert spec["axes"]["roughness"] == {"values": [0.3, 0.7]}
+    assert spec["fresnel"] == {"type": "conductor", "eta": 0.2, "k": 3.0}
+    assert spec["distribution"] == "beckmann" and spec["shadowing"] == "separable" and spec["tolerance"] == 1e-5
+
+
+def test_other_table_kinds(client):
+    for url, shape in [
+        ("/tables/albedo_avg?alpha=0.1,0.5", [2]),
+        ("/tables/dielectric?mu=0.5,1&alpha=0.3&eta=0.8,1.5", [2, 1, 2]),
+        ("/tables/dielectric_avg?alpha=0.3&eta=1.5", [1, 1]),
+        ("/tables/dfg?mu_size=2&roughness_size=2&roughness_nodes=centers", [2, 2]),
+    ]:
+        r = client.get(url + "&format=json")
+        assert r.status_code == 200, (url, r.text)
+        assert r.json()["shape"] == shape
+
+
+def test_etag_if_none_match_304(client):
+    r = client.get(f"/tables/albedo?{SMALL}")
+    etag = r.headers["etag"]
+    for inm in (etag, f"W/{etag}", f'"other", {etag}', "*"):
+        r304 = client.get(f"/tables/albedo?{SMALL}", headers={"If-None-Match": inm})
+        assert r304.status_code == 304, inm
+        assert r304.content == b""
+        assert r304.headers["etag"] == etag
+    assert client.get(f"/tables/albedo?{SMALL}", headers={"If-None-Match": '"nope"'}).status_code == 200
+
+
+def test_head(client):
+    r = client.head(f"/tables/albedo?{SMALL}")
+    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+
+
+def test_info_and_preview(client):
+    info = client.get(f"/tables/albedo/info?{SMALL}")
+    assert info.status_code == 200 and info.headers["etag"].endswith('.info"')
+    d = info.json()
+    assert d["shape"] == [3, 3] and set(d["max_error"]) == {"E"} and d["conventions"]["frame"]
+    png = client.get(f"/tables/albedo/preview.png?{SMALL}")
+    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    assert png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    err_png = client.get(f"/tables/albedo/preview.png?{SMALL}&channel=E_err")
+    assert err_png.status_code == 200 and err_png.content != png.content
+    cube = "mu=0.5,1&alpha=0.3,0.6&eta=0.8,1.5"
+    s0 = client.get(f"/tables/dielectric/preview.png?{cube}&channel=T&slice=0")
+    s1 = client.get(f"/tables/dielectric/preview.png?{cube}&channel=T&slice=1")
+    s_mu = client.get(f"/tables/dielectric/preview.png?{cube}&slice_axis=mu&slice=-1")
+    assert s0.status_code == s1.status_code == s_mu.status_code == 200
+    assert s0.content != s1.content
+    assert client.get("/tables/albedo_avg/preview.png?alpha=0.1,0.5").status_code == 200
+
+
+def test_page(client):
+    r = client.get("/?table=albedo&mu=0.2,0.6,1&alpha_size=3&mu_size=")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    html = r.text
+    assert 'id="preview"' in html and "/tables/albedo/preview.png?mu=0.2%2C0.6%2C1&amp;alpha_size=3" in html
+    assert 'id="max-error"' in html and "conventions" in html and "Walter" in html
+    for kind in ("albedo_avg", "dielectric", "dfg"):
+        assert f'href="/?table={kind}"' in html  # the catalog
+    page3 = client.get("/?table=dielectric&mu=0.5,1&alpha=0.3&eta=1.5&slice=0&channel=T")
+    assert page3.status_code == 200 and "slice=0" in page3.text
+    bad = client.get("/?table=albedo&mu=0.5,0.2")
+    assert bad.status_code == 400 and 'id="error"' in bad.text and "strictly increasing" in bad.text
+    assert client.get("/?table=nope").status_code == 404
+    big = client.get("/?table=albedo")  # default 32 x 32 > max_texels
+    assert big.status_code == 413 and "texels" in big.text
+
+
+# ------------------------------------------------------------------ errors
+
+
+@pytest.mark.parametrize(
+    "url, status, param, query_param",
+    [
+        ("/tables/nope", 404, "table", "table"),
+        ("/tables/albedo?colour=red", 400, "colour", "colour"),
+        ("/tables/albedo?mu=0.1&mu=0.2", 400, "mu", "mu"),
+        ("/tables/albedo?alpha=-0.1", 400, "axes.alpha", "alpha"),
+        ("/tables/albedo?alpha_min=-1&alpha_size=2", 400, "axes.alpha", "alpha"),
+        ("/tables/albedo?fresnel=dielectric&fresnel_eta=0", 400, "fresnel.eta", "fresnel_eta"),
+        ("/tables/albedo?fresnel=dielectric&fresnel_eta=-2", 400, "fresnel.eta", "fresnel_eta"),
+        ("/tables/dielectric?eta=0,1.5&mu=1&alpha=0.5", 400, "axes.eta", "eta"),
+        ("/tables/albedo?mu=nan", 400, "axes.mu", "mu"),
+        ("/tables/albedo?mu=0.5,inf", 400, "axes.mu", "mu"),
+        ("/tables/albedo?tolerance=nan", 400, "tolerance", "tolerance"),
+        ("/tables/albedo?fresnel=schlick&fresnel_f0=inf", 400, "fresnel.f0", "fresnel_f0"),
+        ("/tables/albedo?mu=", 400, "mu", "mu"),
+        ("/tables/albedo?mu=0.5,0.2", 400, "axes.mu", "mu"),
+        ("/tables/albedo?mu=0.5,0.5", 400, "axes.mu", "mu"),
+        ("/tables/albedo?mu=abc", 400, "mu", "mu"),
+        ("/tables/albedo?mu_size=2.5", 400, "mu_size", "mu_size"),
+        ("/tables/albedo?mu_size=0", 400, "axes.mu.size", "mu_size"),
+        ("/tables/albedo?mu_spacing=log&mu_size=2", 400, "axes.mu.spacing", "mu_spacing"),
+        ("/tables/albedo?mu_min=0.9&mu_max=0.1&mu_size=2", 400, "axes.mu.range", "mu_min,mu_max"),
+        ("/tables/albedo?mu=0.5&mu_size=3", 400, "mu_size", "mu_size"),
+        ("/tables/albedo?eta=1.5", 400, "axes.eta", "eta"),
+        ("/tables/albedo?alpha=0.5&roughness=0.5", 400, "axes", None),
+        ("/tables/albedo?distribution=phong", 400, "distribution", "distribution"),
+        ("/tables/dfg?fresnel=schlick&fresnel_f0=0.04", 400, "fresnel.type", "fresnel"),
+        ("/tables/albedo?fresnel=schlick", 400, "fresnel.f0", "fresnel_f0"),
+        ("/tables/albedo?mu_size=100&alpha_size=100", 413, "axes", None),
+        ("/tables/albedo?format=tiff", 406, "format", "format"),
+        ("/tables/albedo/info?format=json", 400, "format", "format"),
+        ("/tables/albedo/preview.png?mu=0.5&alpha=0.5&channel=Q", 400, "channel", "channel"),
+        ("/tables/albedo/preview.png?mu=0.5&alpha=0.5&slice=0", 400, "slice", "slice"),
+        ("/tables/dielectric/preview.png?mu=0.5&alpha=0.5&eta=1.5&slice=3", 400, "slice", "slice"),
+        ("/tables/dielectric/preview.png?mu=0.5&alpha=0.5&eta=1.5&slice_axis=k", 400, "slice_axis", "slice_axis"),
+        (f"/tables/albedo?mu=1{'0' * 400}", 400, "axes.mu", "mu"),
+    ],
+)
+def test_bad_query_names_the_parameter(client, url, status, param, query_param):
+    err(client.get(url), status, param, query_param)
+
+
+def test_accept_not_acceptable(client):
+    body = err(client.get(f"/tables/albedo?{SMALL}", headers={"Accept": "text/html"}), 406, "Accept")
+    assert "image/x-exr" in body["allowed"]
+
+
+@pytest.mark.parametrize(
+    "body, status, param",
+    [
+        ({"table": "albedo", "axes": {"alpha": [-0.5]}}, 400, "axes.alpha"),
+        ({"table": "albedo", "colour": 1}, 400, "colour"),
+        ({"table": "nope"}, 404, "table"),
+        ({"axes": {}}, 400, "table"),
+        ({"table": "albedo", "axes": {"mu": []}}, 400, "axes.mu"),
+        ({"table": "albedo", "axes": {"mu": {"size": 64}, "alpha": {"size": 64}}}, 413, "axes"),
+        ([1, 2], 400, None),
+        ('{"table": "albedo", "axes": {"mu": [1' + "0" * 400 + "]}}", 400, None),  # int too big for a float
+    ],
+)
+def test_bad_post_body(client, body, status, param):
+    raw = body.encode() if isinstance(body, str) else json.dumps(body).encode()
+    err(client.post("/tables", content=raw, headers={"Content-Type": "application/json"}), status, param)
+
+
+def test_post_malformed_and_large_bodies(client):
+    err(client.post("/tables", content=b"{not json"), 400, "body")
+    err(client.post("/tables", content=b""), 400, "body")
+    err(client.post("/tables", content=b"[" * 100000 + b"]" * 100000), 413, "body")
+    err(client.post("/tables", content=b"[" * 1900), 400, "body")  # deep nesting, under the cap
+    err(client.post("/tables", content=b'{"table": "albedo", "tolerance": NaN}'), 400, "tolerance")
+    err(client.post("/tables", content=b"\xff\xfe"), 400, "body")
+    err(client.post("/tables?format=xml", json=SMALL_SPEC), 406, "format")
+    err(client.post("/tables?mu=1", json=SMALL_SPEC), 400, "mu")
+
+
+def test_unknown_route_and_method_are_json(client):
+    err(client.get("/nope"), 404)
+    err(client.delete("/tables"), 405)
+
+
+def test_cli_serve_is_registered():
+    from bsdf_tab.cli import COMMANDS
+
+    assert "serve" in COMMANDS
