@@ -1,0 +1,172 @@
+"""Service cache: checksummed entries, corruption -> recompute (never served), atomic writes, LRU cap."""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import pytest
+
+pytest.importorskip("fastapi")
+from fastapi.testclient import TestClient  # noqa: E402
+
+import service.compute  # noqa: E402
+from bsdf_tab.exr import read_exr_bytes  # noqa: E402
+from service.app import create_app  # noqa: E402
+from service.cache import MAGIC, DiskCache, table_key  # noqa: E402
+from service.settings import Settings  # noqa: E402
+
+
+# ------------------------------------------------------------------ DiskCache
+
+
+def test_roundtrip_and_file_format(tmp_path):
+    c = DiskCache(tmp_path, 10_000)
+    assert c.get("a.exr") is None
+    c.put("a.exr", b"hello")
+    assert c.get("a.exr") == b"hello"
+    raw = (tmp_path / "a.exr").read_bytes()
+    assert raw.startswith(MAGIC) and raw.endswith(b"\nhello")
+    assert c.summary()["entries"] == 1 and c.stats["hits"] == 1 and c.stats["misses"] == 1
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        lambda b: b[:-1],  # truncated payload
+        lambda b: b[:10],  # truncated header
+        lambda b: b[:-2] + bytes([b[-2] ^ 1]) + b[-1:],  # one bit flipped
+        lambda b: b"",  # empty file
+        lambda b: b"PK\x03\x04 something else",  # a foreign file
+        lambda b: b + b"x",  # trailing garbage
+    ],
+)
+def test_corrupt_entry_is_a_miss_and_removed(tmp_path, damage):
+    c = DiskCache(tmp_path, 10_000)
+    c.put("k.npz", b"payload-bytes" * 10)
+    path = tmp_path / "k.npz"
+    path.write_bytes(damage(path.read_bytes()))
+    assert c.get("k.npz") is None
+    assert not path.exists()
+    assert c.stats["corrupt"] == 1 and "k.npz" not in c
+
+
+def test_writes_are_atomic_and_stale_temporaries_cleaned(tmp_path):
+    (tmp_path / ".x.npz.123.abc.tmp").write_bytes(b"half a write")
+    c = DiskCache(tmp_path, 10_000)
+    c.put("x.npz", b"1" * 100)
+    assert sorted(os.listdir(tmp_path)) == ["x.npz"]  # the stale temporary is gone, no new ones
+
+    # readers racing a writer only ever see complete entries
+    stop = threading.Event()
+    seen = set()
+
+    def reader():
+        while not stop.is_set():
+            v = c.get("x.npz")
+            if v is not None:
+                seen.add(v)
+
+    t = threading.Thread(target=reader)
+    t.start()
+    for i in range(60):
+        c.put("x.npz", bytes([48 + i % 2]) * 5000)
+    stop.set()
+    t.join()
+    assert seen <= {b"1" * 100, b"0" * 5000, b"1" * 5000}
+
+
+def test_lru_eviction_under_the_cap(tmp_path):
+    entry = len(MAGIC) + 64 + 1 + 3 + 1 + 100  # header + 100-byte payload
+    c = DiskCache(tmp_path, 3 * entry)
+    for name in ("a", "b", "c"):
+        c.put(name, name.encode() * 100)
+    assert c.get("a") is not None  # a is now the most recently used
+    c.put("d", b"d" * 100)  # evicts b, the least recently used
+    assert "b" not in c and not (tmp_path / "b").exists()
+    assert {"a", "c", "d"} <= set(os.listdir(tmp_path))
+    assert c.total_bytes <= 3 * entry and c.stats["evictions"] == 1
+    # a new instance rebuilds the index (order from the files' mtimes) and keeps the cap
+    os.utime(tmp_path / "c", (1, 1))
+    c2 = DiskCache(tmp_path, 3 * entry)
+    assert len(c2) == 3 and c2.total_bytes == 3 * entry
+    c2.put("e", b"e" * 100)
+    assert "c" not in c2 and "a" in c2
+
+
+def test_entry_larger_than_the_cap_is_not_stored(tmp_path):
+    c = DiskCache(tmp_path, 50)
+    c.put("big", b"x" * 100)
+    assert c.get("big") is None and len(c) == 0
+
+
+def test_bad_names_are_refused(tmp_path):
+    c = DiskCache(tmp_path, 1000)
+    for name in ("../x", "a/b", "", ".hidden"):
+        with pytest.raises(ValueError):
+            c.put(name, b"x")
+
+
+def test_key_includes_version():
+    assert table_key("ab" * 32, "0.1.0") != table_key("ab" * 32, "0.2.0")
+    assert table_key("ab" * 32, "1.0+local/x").startswith("v1.0+local_x-")
+
+
+# ------------------------------------------------------------------ through the app
+
+
+@pytest.fixture()
+def counted(monkeypatch):
+    calls = []
+    real = service.compute.tabulate
+
+    def counting(spec, **kw):
+        calls.append(spec)
+        return real(spec, **kw)
+
+    monkeypatch.setattr(service.compute, "tabulate", counting)
+    return calls
+
+
+def test_corrupt_cache_file_is_recomputed_never_served(tmp_path, counted):
+    settings = Settings(cache_dir=tmp_path, warmup=False, workers=1)
+    url = "/tables/albedo?mu=0.3,0.9&alpha=0.2,0.6"
+    with TestClient(create_app(settings)) as client:
+        first = client.get(url)
+        assert first.status_code == 200 and len(counted) == 1
+        key = first.headers["x-bsdf-tab-key"]
+        exr_file, master_file = tmp_path / f"{key}.exr", tmp_path / f"{key}.npz"
+        assert exr_file.exists() and master_file.exists()
+
+        # a damaged derived entry is re-derived from the master: no computation
+        data = bytearray(exr_file.read_bytes())
+        data[-20] ^= 0xFF
+        exr_file.write_bytes(bytes(data))
+        again = client.get(url)
+        assert again.status_code == 200 and again.content == first.content
+        assert len(counted) == 1
+
+        # both entries truncated: recomputed, identical bytes, cache repaired
+        for f in (exr_file, master_file):
+            f.write_bytes(f.read_bytes()[: len(f.read_bytes()) // 2])
+        third = client.get(url)
+        assert third.status_code == 200 and third.content == first.content
+        assert len(counted) == 2
+        read_exr_bytes(third.content)  # a valid EXR
+        assert client.get("/healthz").json()["cache"]["corrupt"] == 3  # exr, then exr + master
+    # a fresh process on the same folder serves the repaired entry without computing
+    with TestClient(create_app(settings)) as client:
+        assert client.get(url).content == first.content
+        assert len(counted) == 2
+
+
+def test_size_cap_evicts_through_the_app(tmp_path, counted):
+    settings = Settings(cache_dir=tmp_path, cache_max_bytes=12_000, warmup=False, workers=1)
+    with TestClient(create_app(settings)) as client:
+        for a in (0.1, 0.2, 0.3, 0.4, 0.5):
+            assert client.get(f"/tables/albedo?mu=0.5,1&alpha={a}").status_code == 200
+        total = sum(f.stat().st_size for f in tmp_path.iterdir())
+        assert total <= 12_000
+        assert client.get("/healthz").json()["cache"]["evictions"] > 0
+        # an evicted table is simply computed again
+        assert client.get("/tables/albedo?mu=0.5,1&alpha=0.1").status_code == 200

@@ -1,0 +1,140 @@
+"""Service concurrency: one computation for N simultaneous requests; the event loop stays free."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+
+import pytest
+
+httpx = pytest.importorskip("httpx")
+
+import service.compute  # noqa: E402
+from bsdf_tab.errors import SpecError  # noqa: E402
+from service.app import create_app  # noqa: E402
+from service.settings import Settings  # noqa: E402
+
+
+def _client(app):
+    return httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://svc")
+
+
+@pytest.fixture()
+def slow_tabulate(monkeypatch):
+    """tabulate that counts its calls and holds each one until ``release`` is set (or 10 s)."""
+    real = service.compute.tabulate
+    state = {"calls": 0, "threads": set(), "release": threading.Event(), "started": threading.Event()}
+
+    def slow(spec, **kw):
+        state["calls"] += 1
+        state["threads"].add(threading.current_thread().name)
+        state["started"].set()
+        state["release"].wait(10)
+        return real(spec, **kw)
+
+    monkeypatch.setattr(service.compute, "tabulate", slow)
+    return state
+
+
+def test_simultaneous_requests_compute_once(tmp_path, slow_tabulate):
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1))
+    url = "/tables/albedo?mu=0.25,0.75&alpha=0.1,0.4,0.9"
+    n = 24
+
+    async def main():
+        async with _client(app) as c:
+            tasks = [asyncio.create_task(c.get(url + ("&format=npz" if i % 3 == 0 else ""))) for i in range(n)]
+            while not slow_tabulate["started"].is_set():
+                await asyncio.sleep(0.01)
+            await asyncio.sleep(0.2)  # every request is now waiting on the one computation
+            health = (await c.get("/healthz")).json()
+            slow_tabulate["release"].set()
+            return health, await asyncio.gather(*tasks)
+
+    health, responses = asyncio.run(main())
+    assert health["computing"] == 1 and health["in_flight"] >= 1
+    assert slow_tabulate["calls"] == 1
+    assert all(r.status_code == 200 for r in responses)
+    exr = {r.content for i, r in enumerate(responses) if i % 3}
+    npz = {r.content for i, r in enumerate(responses) if i % 3 == 0}
+    assert len(exr) == 1 and len(npz) == 1  # identical bytes for everyone
+    assert {r.headers["etag"] for i, r in enumerate(responses) if i % 3} == {responses[1].headers["etag"]}
+    assert all(name.startswith("bsdf-tab-compute") for name in slow_tabulate["threads"])  # off the event loop
+    assert app.state.store.computations == 1
+
+
+def test_health_and_cached_tables_stay_fast_while_computing(tmp_path, slow_tabulate):
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1))
+    cached = "/tables/albedo?mu=0.5,1&alpha=0.5"
+
+    async def main():
+        async with _client(app) as c:
+            slow_tabulate["release"].set()
+            assert (await c.get(cached)).status_code == 200  # now cached
+            slow_tabulate["release"].clear()
+            slow_tabulate["started"].clear()
+            big = asyncio.create_task(c.get("/tables/albedo?mu=0.1,0.5,1&alpha=0.1,0.5"))
+            other = asyncio.create_task(c.get("/tables/albedo?mu=0.2,0.6&alpha=0.3"))  # queued behind it
+            while not slow_tabulate["started"].is_set():
+                await asyncio.sleep(0.01)
+            timings = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                h = await c.get("/healthz")
+                r = await c.get(cached)
+                timings.append(time.perf_counter() - t0)
+                assert h.status_code == 200 and r.status_code == 200
+            health = h.json()
+            slow_tabulate["release"].set()
+            results = await asyncio.gather(big, other)
+            return timings, health, results
+
+    timings, health, results = asyncio.run(main())
+    assert max(timings) < 0.5, timings  # not blocked by the computation (held for up to 10 s)
+    assert health["computing"] == 1 and health["queued"] == 1
+    assert [r.status_code for r in results] == [200, 200]
+
+
+def test_queue_full_is_503_with_retry_after(tmp_path, slow_tabulate):
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
+
+    async def main():
+        async with _client(app) as c:
+            first = asyncio.create_task(c.get("/tables/albedo?mu=0.5&alpha=0.5"))
+            while not slow_tabulate["started"].is_set():
+                await asyncio.sleep(0.01)
+            busy = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            slow_tabulate["release"].set()
+            return busy, await first
+
+    busy, first = asyncio.run(main())
+    assert busy.status_code == 503 and busy.headers["retry-after"] and busy.json()["error"]["code"] == "busy"
+    assert first.status_code == 200
+
+
+def test_a_failed_computation_reaches_every_waiter_then_is_retried(tmp_path, monkeypatch):
+    calls = []
+    gate = threading.Event()
+
+    def failing(spec, **kw):
+        calls.append(1)
+        gate.wait(5)
+        raise SpecError("axes.eta", "the integrator refused this texel")
+
+    monkeypatch.setattr(service.compute, "tabulate", failing)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1))
+
+    async def main():
+        async with _client(app) as c:
+            tasks = [asyncio.create_task(c.get("/tables/albedo?mu=0.5&alpha=0.5")) for _ in range(6)]
+            await asyncio.sleep(0.2)
+            gate.set()
+            rs = await asyncio.gather(*tasks)
+            again = await c.get("/tables/albedo?mu=0.5&alpha=0.5")
+            return rs, again
+
+    rs, again = asyncio.run(main())
+    assert [r.status_code for r in rs] == [400] * 6
+    assert rs[0].json()["error"]["param"] == "axes.eta"
+    assert len(calls) == 2 and again.status_code == 400
