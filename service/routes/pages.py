@@ -131,15 +131,18 @@ def _result(kind: str, query: str, preview_query: str, info: dict) -> str:
     shape = " x ".join(f"{n} {a['size']}" for n, a in info.get("axes", {}).items())
     img_src = f"/tables/{kind}/preview.png" + (f"?{preview_query}" if preview_query else "")
     return f"""<section class="result" id="result">
-  <figure style="margin:0"><img id="preview" src="{escape(img_src)}" alt="preview of the {escape(kind)} table" width="640" height="480"></figure>
+  <figure style="margin:0"><img id="preview" src="{escape(img_src)}" alt="preview of the {escape(kind)} table" width="640" height="480"
+    onload="this.dataset.loaded = this.naturalWidth + 'x' + this.naturalHeight" onerror="this.dataset.loaded = 'error'"></figure>
   <div>
     <h2>{escape(kind)}: {escape(shape)}</h2>
     <p>max error estimate: <span class="maxerr" id="max-error">{escape(err_text)}</span></p>
     <p>download: {links}</p>
+    <h2>method</h2>
+    {_dl({k: v for k, v in method.items()})}
+  </div>
+  <div class="wide" id="conventions">
     <h2>conventions</h2>
     {_dl(info.get("conventions") or {})}
-    <h2 style="margin-top:8px">method</h2>
-    {_dl({k: v for k, v in method.items()})}
   </div>
 </section>"""
 
