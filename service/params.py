@@ -40,7 +40,13 @@ from bsdf_tab.spec import (
     TOLERANCE_RANGE,
 )
 
+from bsdf_tab import spec as _spec_module
+
 from .errors import ServiceError
+
+#: Top-level parameters that only some kinds take (``TABLE_KINDS[kind]["params"]``), for example
+#: the ``bsdf`` table's scalar ``alpha`` / ``roughness`` and its ``parametrization``.
+KIND_KEYS: tuple[str, ...] = tuple(getattr(_spec_module, "KIND_KEYS", ()))
 
 __all__ = [
     "FORMATS",
@@ -52,6 +58,7 @@ __all__ = [
     "catalog",
     "spec_json_schema",
     "AXIS_SUFFIXES",
+    "KIND_KEYS",
 ]
 
 #: format -> media type
@@ -150,7 +157,8 @@ def spec_from_query(table: str, items: Iterable[tuple[str, str]], extra: Iterabl
         400 for an unknown or repeated parameter, or a value that is not a number.
     """
     extra = set(extra)
-    known = set(spec_params())
+    known = set(spec_params()) | set(KIND_KEYS)
+    kind_params = set(TABLE_KINDS[table].get("params", ())) if table in TABLE_KINDS else set()
     seen: dict[str, str] = {}
     for name, value in items:
         if name not in known and name not in extra:
@@ -172,6 +180,12 @@ def spec_from_query(table: str, items: Iterable[tuple[str, str]], extra: Iterabl
             fresnel[p] = _float(seen[f"fresnel_{p}"], f"fresnel_{p}")
     if fresnel:
         spec["fresnel"] = fresnel
+    for key in KIND_KEYS:  # a kind's own scalar (bsdf: alpha=0.3 is the material, not an axis)
+        if key in seen and key in kind_params:
+            value = seen.pop(key)
+            spec[key] = value if key == "parametrization" else _float(value, key)
+        elif key in seen and key not in AXIS_NAMES:
+            spec[key] = seen.pop(key)  # the library names what is wrong with it
     axes: dict[str, Any] = {}
     for axis in AXIS_NAMES:
         axis_spec = _axis_from_query(axis, seen)
@@ -298,21 +312,40 @@ def catalog(settings) -> dict:
             "axis": {"types": ["dielectric"], "default": "dielectric", "note": "eta is the table's eta axis"},
             "one": {"types": ["one"], "default": "one", "note": "Fresnel-independent"},
         }[info["fresnel"]]
-        tables[kind] = {
+        entry = {
             "description": info["description"],
             "axes": axes,
             "channels": list(info["channels"]),
             "error_channels": [f"{c}_err" for c in info["channels"]],
             "fresnel": fresnel,
             "url": f"/tables/{kind}",
+            "methods": sorted(info.get("methods", getattr(_spec_module, "METHODS", METHODS))),
         }
+        if info.get("params"):
+            entry["params"] = {
+                name: (
+                    {"type": "number", "range": list(getattr(_spec_module, "SCALAR_PARAMS", {}).get(name, ())),
+                     "default": getattr(_spec_module, "DEFAULT_BSDF_ALPHA", None) if name == "alpha" else None,
+                     "query_param": name}
+                    if name != "parametrization"
+                    else {"type": "string", "enum": list(info.get("parametrizations", {})), "query_param": name}
+                )
+                for name in info["params"]
+            }
+        if info.get("parametrizations"):
+            entry["parametrizations"] = {k: list(v) for k, v in info["parametrizations"].items()}
+            entry["axes_by_parametrization"] = {
+                k: [_axis_doc(a) for a in v] for k, v in info["parametrizations"].items()
+            }
+        tables[kind] = entry
     return {
         "version": __version__,
         "tables": tables,
         "parameters": {
             "distribution": {"type": "string", "enum": sorted(DISTRIBUTIONS), "default": "ggx"},
             "shadowing": {"type": "string", "enum": sorted(SHADOWINGS), "default": "correlated"},
-            "method": {"type": "string", "enum": sorted(METHODS), "default": "adaptive"},
+            "method": {"type": "string", "enum": sorted(getattr(_spec_module, "METHODS", METHODS)), "default": "adaptive",
+                       "note": "a table kind may take only its own methods (tables.<kind>.methods)"},
             "tolerance": {
                 "type": "number", "min": TOLERANCE_RANGE[0], "max": TOLERANCE_RANGE[1], "default": DEFAULT_TOLERANCE,
             },
@@ -349,14 +382,20 @@ def query_parameters(extra: Iterable[dict] = ()) -> list[dict]:
     out = [
         _p("distribution", {"type": "string", "enum": sorted(DISTRIBUTIONS)}, "microfacet distribution"),
         _p("shadowing", {"type": "string", "enum": sorted(SHADOWINGS)}, "shadowing-masking form"),
-        _p("method", {"type": "string", "enum": sorted(METHODS)}, "integration method"),
+        _p("method", {"type": "string"}, "integration method (see GET /tables for each table's)"),
         _p("tolerance", {"type": "number"}, f"target absolute error, in {list(TOLERANCE_RANGE)}"),
         _p("fresnel", {"type": "string", "enum": sorted(FRESNEL_TYPES)}, "Fresnel type"),
     ]
     out += [_p(f"fresnel_{p}", {"type": "number"}, f"Fresnel parameter {p}") for p in FRESNEL_PARAMS]
+    out += [
+        _p(k, {"type": "string"}, f"table parameter {k} (only tables that take it, see GET /tables)")
+        for k in KIND_KEYS
+        if k not in AXIS_NAMES
+    ]
     for axis in AXIS_NAMES:
         out += [
-            _p(axis, {"type": "string", "pattern": r"^[-+0-9.eE,]+$"}, f"explicit {axis} values, comma-separated, increasing"),
+            _p(axis, {"type": "string", "pattern": r"^[-+0-9.eE,]+$"}, f"explicit {axis} values, comma-separated, increasing"
+               + (" (for a table that takes a scalar {axis}, that scalar)" if axis in KIND_KEYS else "")),
             _p(f"{axis}_size", {"type": "integer", "minimum": 1, "maximum": MAX_AXIS_SIZE}, f"{axis} resolution"),
             _p(f"{axis}_spacing", {"type": "string", "enum": list(SPACINGS)}, f"{axis} spacing"),
             _p(f"{axis}_nodes", {"type": "string", "enum": list(NODES)}, f"{axis} node placement"),
@@ -398,8 +437,9 @@ def spec_json_schema() -> dict:
             "table": {"type": "string", "enum": list(TABLE_KINDS)},
             "distribution": {"type": "string", "enum": sorted(DISTRIBUTIONS)},
             "shadowing": {"type": "string", "enum": sorted(SHADOWINGS)},
-            "method": {"type": "string", "enum": sorted(METHODS)},
+            "method": {"type": "string"},
             "tolerance": number,
+            **{k: ({"type": "string"} if k == "parametrization" else number) for k in KIND_KEYS},
             "fresnel": {
                 "type": "object",
                 "properties": {"type": {"type": "string", "enum": sorted(FRESNEL_TYPES)}, **{p: number for p in FRESNEL_PARAMS}},

@@ -31,6 +31,11 @@ _LABELS = {
     "alpha": "alpha (GGX/Beckmann width)",
     "roughness": "roughness (alpha = roughness^2)",
     "eta": "eta = eta_o / eta_i",
+    "theta_i": "theta_i (rad)",
+    "theta_o": "theta_o (rad)",
+    "theta_h": "theta_h (rad)",
+    "theta_d": "theta_d (rad)",
+    "phi_d": "phi_d (rad)",
 }
 
 

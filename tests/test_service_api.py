@@ -55,7 +55,7 @@ def test_healthz(client):
 
 def test_catalog_lists_tables_params_ranges_defaults_limits(client):
     cat = client.get("/tables").json()
-    assert set(cat["tables"]) == {"albedo", "albedo_avg", "dielectric", "dielectric_avg", "dfg"}
+    assert {"albedo", "albedo_avg", "dielectric", "dielectric_avg", "dfg"} <= set(cat["tables"])
     albedo = cat["tables"]["albedo"]
     assert [a["name"] for a in albedo["axes"]] == ["mu", "alpha"]
     mu = albedo["axes"][0]

@@ -65,8 +65,23 @@ def _label(text: str, control: str) -> str:
 
 
 def _axis_names_for(kind: str, given: dict) -> list[str]:
+    info = TABLE_KINDS[kind]
+    slots = info["axes"]
+    if info.get("parametrizations"):
+        slots = info["parametrizations"].get(given.get("parametrization"), slots)
     rough = "roughness" if any(k == "roughness" or k.startswith("roughness_") for k in given) else "alpha"
-    return [rough if n == ROUGHNESS_SLOT else n for n in TABLE_KINDS[kind]["axes"]]
+    return [rough if n == ROUGHNESS_SLOT else n for n in slots]
+
+
+def _kind_params(kind: str, q: dict) -> list[str]:
+    info = TABLE_KINDS[kind]
+    rows = []
+    for name in info.get("params", ()):
+        if name == "parametrization":
+            rows.append(_label(name, _select(name, list(info.get("parametrizations", {})), q.get(name), "(default)")))
+        elif name == "alpha":  # alpha or roughness: one field, alpha
+            rows.append(_label("alpha", _input("alpha", q.get("alpha"), "material width (default)")))
+    return (["    <fieldset><legend>material</legend>"] + rows + ["    </fieldset>"]) if rows else []
 
 
 def _form(kind: str, q: dict) -> str:
@@ -76,6 +91,7 @@ def _form(kind: str, q: dict) -> str:
     rows.append(_label("shadowing", _select("shadowing", sorted(SHADOWINGS), q.get("shadowing"), "correlated (default)")))
     rows.append(_label("tolerance", _input("tolerance", q.get("tolerance"), "5e-07 (default)")))
     rows.append("    </fieldset>")
+    rows.extend(_kind_params(kind, q))
     if TABLE_KINDS[kind]["fresnel"] == "any":
         rows.append("    <fieldset><legend>Fresnel</legend>")
         rows.append(_label("type", _select("fresnel", sorted(FRESNEL_TYPES), q.get("fresnel"), "one (default)")))
@@ -94,8 +110,9 @@ def _form(kind: str, q: dict) -> str:
         rows.append("    </fieldset>")
     rows.append("    <fieldset><legend>preview</legend>")
     rows.append(_label("channel", _select("channel", channel_names(kind, errors=True), q.get("channel"))))
-    if len(TABLE_KINDS[kind]["axes"]) == 3:
-        rows.append(_label("slice", _input("slice", q.get("slice"), f"index along {TABLE_KINDS[kind]['axes'][-1]} (middle)")))
+    names = _axis_names_for(kind, q)
+    if len(names) == 3:
+        rows.append(_label("slice", _input("slice", q.get("slice"), f"index along {names[-1]} (middle)")))
     rows.append("    </fieldset>")
     return "\n".join(rows)
 
