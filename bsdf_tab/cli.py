@@ -203,13 +203,53 @@ def _configure_bake(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--device", default=None, help="Warp device, for example cpu or cuda:0 (default: Warp's)")
     parser.add_argument("--workers", type=int, default=None, help="number of parallel workers")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--preset", default=None, help="bake an engine preset or group (see `bsdf-tab presets`) into -o DIR")
+    parser.add_argument(
+        "--format", default=None, choices=("exr", "half-exr", "npy", "h"), help="file format of --preset (default: exr)"
+    )
 
 
 def cmd_bake(args: argparse.Namespace) -> int:
-    """Bake one spec file, or the default set when no spec is given."""
+    """Bake one spec file, or the default set when no spec is given, or a preset."""
     if args.workers is not None and args.workers < 1:
         raise CliError("--workers must be >= 1")
+    if getattr(args, "preset", None) is not None:
+        return _bake_preset(args)
+    if getattr(args, "format", None) is not None:
+        raise CliError("--format applies to --preset (a spec file's format follows the -o suffix)")
     return _bake_one(args) if args.spec else _bake_default_set(args)
+
+
+def _bake_preset(args: argparse.Namespace) -> int:
+    from .presets import build_preset, expand_preset, write_table
+
+    if args.spec:
+        raise CliError("give either a spec file or --preset, not both")
+    try:
+        names = expand_preset(args.preset)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    out_dir = Path(args.output or DEFAULT_OUT_DIR)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise CliError(f"output {out_dir} exists and is not a folder (with --preset, -o names a folder)")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tabulate = _tabulate(args)
+    for name in names:
+        table = build_preset(name, device=args.device, workers=args.workers, progress=not args.quiet, tabulate=tabulate)
+        paths = write_table(table, out_dir, name.replace("-", "_"), args.format or "exr")
+        print(_summary(paths[0], table))
+    return 0
+
+
+def cmd_presets(args: argparse.Namespace) -> int:
+    """List the engine presets and groups."""
+    from .presets import GROUPS, PRESETS, describe
+
+    for preset in PRESETS.values():
+        print(describe(preset))
+    for group, members in GROUPS.items():
+        print(f"{group:<31} group: {', '.join(members)}")
+    return 0
 
 
 # --------------------------------------------------------------------------- info
@@ -267,6 +307,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 register_command("bake", "bake a spec file (or the default set) to EXR", _configure_bake, cmd_bake)
 register_command("info", "describe a table file", _configure_info, cmd_info)
+register_command("presets", "list the engine presets (bake one with bake --preset NAME)", lambda parser: None, cmd_presets)
 try:  # the HTTP service registers `serve` (service/cli.py); absent in a library-only install
     from service.cli import register as _register_serve
 except ImportError:
