@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-import bsdf_tab
 from bsdf_tab import __version__
 from bsdf_tab.api import tabulate  # noqa: F401  (monkeypatch point)
 from bsdf_tab.errors import SpecError
@@ -208,15 +207,10 @@ class TableStore:
             log.warning("cannot write cache entry %s: %s", name, exc)
 
     def warmup(self) -> None:
-        """Load (compile on first use) the Warp kernels of every table kind: one tiny table each."""
-        from bsdf_tab.spec import TABLE_KINDS
+        """Load (compile on first use) the Warp kernels of every table kind."""
+        from .warmup import warm_all
 
-        for kind, info in TABLE_KINDS.items():
-            axes = {n: [1.5 if n == "eta" else 0.5] for n in info["axes"]}
-            try:
-                bsdf_tab.tabulate({"table": kind, "axes": axes}, device=self.settings.device, workers=1)
-            except Exception as exc:  # noqa: BLE001 - warm-up is best effort
-                log.warning("warm-up of %s failed: %s", kind, exc)
+        warm_all(self.settings.device)
 
     def health(self) -> dict:
         return {

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import json
 from html import escape
-from pathlib import Path
-from string import Template
 from urllib.parse import urlencode
 
 from fastapi import APIRouter, Request
@@ -32,13 +30,14 @@ from bsdf_tab.spec import (
 )
 
 from ..errors import ServiceError, from_spec_error, query_param_for
+from ..page_template import PAGE
 from ..params import FRESNEL_PARAMS, spec_from_query
 from ..preview import check_preview
 from .tables import store_of
 
 router = APIRouter(tags=["pages"])
 
-_TEMPLATE = Template((Path(__file__).resolve().parent.parent / "templates" / "index.html").read_text(encoding="utf-8"))
+_TEMPLATE = PAGE
 DEFAULT_TABLE = "albedo"
 PAGE_EXTRA = ("table", "channel", "slice", "slice_axis")
 

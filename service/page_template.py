@@ -1,4 +1,9 @@
-<!doctype html>
+"""The HTML of ``GET /`` (a :class:`string.Template`; kept in Python so installs need no package data)."""
+
+from string import Template
+
+PAGE = Template(
+    r"""<!doctype html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
@@ -57,3 +62,5 @@ $catalog
 </main>
 </body>
 </html>
+"""
+)
