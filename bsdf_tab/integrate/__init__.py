@@ -8,7 +8,14 @@ maps the spec's ``method`` name to it.
 
 from .adaptive import integrate_texels
 
-METHODS = {"adaptive": integrate_texels}
+from . import grid as _grid, montecarlo as _montecarlo, vndf_gl as _vndf_gl
+
+METHODS = {
+    "adaptive": integrate_texels,
+    **_grid.METHODS,  # "grid": midpoint rule over the outgoing hemisphere
+    **_montecarlo.METHODS,  # "mc_cosine", "mc_dcos", "mc_vndf", "qmc_vndf"
+    **_vndf_gl.METHODS,  # "vndf_gl": Gauss-Legendre over the VNDF sample square
+}
 
 
 def get_method(name: str):
