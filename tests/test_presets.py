@@ -1,0 +1,297 @@
+"""Engine presets: axes, axis order and value conventions of each peer, and the CLI.
+
+Axis values are written here from the peers' published formulas (the anchors README), not
+taken from the preset code; preset values are checked against plain ``tabulate`` results on
+small subsets (so the transformations - sums, complements, transposes, reversed eta, the
+duplicated OpenPBR ior = 1 - are right), and, where the anchors are present, against the
+peers' own tables at a few texels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bsdf_tab import cli, tabulate
+from bsdf_tab.presets import GROUPS, PRESETS, build_preset, expand_preset, get_preset
+
+ANCHORS = Path(os.environ.get("BSDF_TAB_ANCHORS") or Path(__file__).resolve().parents[2] / "shared" / "anchors")
+
+
+def anchor(rel: str) -> np.ndarray:
+    path = ANCHORS / rel
+    if not path.exists():
+        pytest.skip(f"anchor {rel} not present")
+    return np.load(path)
+
+
+def ch(table, name):
+    return np.asarray(table.channels[name], dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- axes
+
+
+def cycles_expected(n):
+    return np.array([min(max(i / (n - 1), 1e-4), 1.0) for i in range(n)])
+
+
+def cycles_ior_expected():
+    z = [min(max(k / 15, 1e-4), 0.99) for k in range(16)]
+    return np.array([(1 + x * x) / (1 - x * x) for x in z])
+
+
+OPENPBR_IOR = np.array([1 / (1 + 1.5 * (15 - i) / 15) for i in range(16)] + [1 + 0.1 * k for k in range(16)])
+
+EXPECTED_AXES = {
+    "cycles-ggx-E": {"mu": cycles_expected(32), "roughness": cycles_expected(32)},
+    "cycles-ggx-Eavg": {"roughness": cycles_expected(32)},
+    "cycles-ggx-glass-E": {"ior": cycles_ior_expected(), "mu": cycles_expected(16), "roughness": cycles_expected(16)},
+    "cycles-ggx-glass-inv-E": {"ior": cycles_ior_expected(), "mu": cycles_expected(16), "roughness": cycles_expected(16)},
+    "cycles-ggx-glass-Eavg": {"ior": cycles_ior_expected(), "roughness": cycles_expected(16)},
+    "cycles-ggx-glass-inv-Eavg": {"ior": cycles_ior_expected(), "roughness": cycles_expected(16)},
+    "openpbr-ideal-metal": {"roughness": np.arange(32) / 31, "cos": np.arange(32) / 31},
+    "openpbr-ideal-metal-avg": {"roughness": np.arange(32) / 31},
+    "openpbr-ideal-dielectric": {"ior": OPENPBR_IOR, "roughness": np.arange(32) / 31, "cos": np.arange(32) / 31},
+    "openpbr-ideal-dielectric-avg": {"ior": OPENPBR_IOR, "roughness": np.arange(32) / 31},
+    "openpbr-opaque-dielectric": {"ior": OPENPBR_IOR, "roughness": np.arange(32) / 31, "cos": np.arange(32) / 31},
+    "openpbr-opaque-dielectric-avg": {"ior": OPENPBR_IOR, "roughness": np.arange(32) / 31},
+    "filament-dfg": {"roughness": (np.arange(128) + 0.5) / 128, "mu": (np.arange(128) + 0.5) / 128},
+    "filament-dfg-multiscatter": {"roughness": (np.arange(128) + 0.5) / 128, "mu": (np.arange(128) + 0.5) / 128},
+    "unity-hdrp-fgd": {"roughness": np.arange(64) / 63, "mu": (np.arange(64) / 63) ** 2},
+}
+
+
+def test_every_preset_has_expected_axes():
+    assert set(EXPECTED_AXES) == set(PRESETS)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED_AXES))
+def test_axes_values_and_order(name):
+    axes = get_preset(name).axes()
+    expected = EXPECTED_AXES[name]
+    assert list(axes) == list(expected)  # the peer's axis order
+    for axis, values in expected.items():
+        np.testing.assert_allclose(axes[axis], values, rtol=1e-12, atol=0)
+
+
+def test_known_axis_values():
+    ior = get_preset("cycles-ggx-glass-E").axes()["ior"]
+    assert ior[0] == pytest.approx(1.00000002, rel=1e-9) and ior[-1] == pytest.approx(99.50251256281392, rel=1e-12)
+    pbr = get_preset("openpbr-ideal-dielectric").axes()["ior"]
+    assert pbr[0] == pytest.approx(0.4) and pbr[15] == pbr[16] == 1.0 and pbr[-1] == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize("name", [n for n in sorted(PRESETS) if PRESETS[n].anchor_axes])
+def test_axes_match_anchor_axis_files(name):
+    preset = get_preset(name)
+    axes = preset.axes()
+    for axis, rel in preset.anchor_axes.items():
+        np.testing.assert_allclose(axes[axis], anchor(rel), rtol=1e-12, atol=1e-15)
+    if preset.anchor:
+        assert anchor(preset.anchor).shape == preset.shape
+
+
+def test_groups_and_unknown_preset():
+    assert expand_preset("filament") == ["filament-dfg", "filament-dfg-multiscatter"]
+    assert set(sum(GROUPS.values(), [])) == set(PRESETS)
+    with pytest.raises(ValueError, match="unknown preset 'nope'"):
+        get_preset("nope")
+
+
+# --------------------------------------------------------------------------- values vs plain tabulate
+
+
+def test_cycles_E_is_correlated_albedo_with_mirror_rule():
+    sel = {"mu": [0, 9, 31], "roughness": [0, 1, 12, 31]}
+    t = build_preset("cycles-ggx-E", select=sel)
+    mu = [1e-4, 9 / 31, 1.0]
+    rough = [1e-4, 1 / 31, 12 / 31, 1.0]
+    plain = tabulate({"table": "albedo", "shadowing": "correlated", "axes": {"mu": mu, "roughness": rough}})
+    e = ch(t, "E")
+    assert e.shape == (3, 4)
+    np.testing.assert_array_equal(e[:, 0], 1.0)  # alpha = 1e-8: alpha^2 <= 5e-7, a perfect mirror
+    np.testing.assert_allclose(e[:, 1:], np.clip(ch(plain, "E")[:, 1:], 0, 1), atol=1e-12)
+    assert e[2, 3] == pytest.approx(1 - np.log(2), abs=2e-6)  # closed form E(mu = 1, alpha = 1)
+    assert t.meta["preset"]["conventions"]["shadowing"].startswith("height-correlated")
+
+
+def test_cycles_glass_inv_order_and_sum():
+    sel = {"ior": [1, 8, 14], "mu": [2, 15], "roughness": [4, 10]}
+    t = build_preset("cycles-ggx-glass-inv-E", select=sel)
+    ior = cycles_ior_expected()[[1, 8, 14]]
+    mu, rough = [2 / 15, 1.0], [4 / 15, 10 / 15]
+    eta = sorted(1.0 / ior)  # ascending: the reverse of the ior order
+    plain = tabulate({"table": "dielectric", "shadowing": "correlated",
+                      "axes": {"mu": mu, "roughness": rough, "eta": eta}})
+    e = ch(t, "E")
+    assert e.shape == (3, 2, 2)  # [ior, mu, roughness]
+    for k in range(3):
+        kk = 2 - k  # eta ascending <-> ior descending
+        want = ch(plain, "R")[:, :, kk] + ch(plain, "T")[:, :, kk]
+        np.testing.assert_allclose(e[k], np.clip(want, 0, 1), atol=1e-12)
+        np.testing.assert_allclose(ch(t, "E_err")[k], ch(plain, "R_err")[:, :, kk] + ch(plain, "T_err")[:, :, kk],
+                                   rtol=1e-9, atol=1e-15)
+    assert "1 / ior" in t.meta["preset"]["conventions"]["eta"]
+
+
+def test_cycles_glass_last_ior_beyond_spec_domain():
+    # ior = 99.5 (z = 0.99) is beyond the spec's eta domain; the preset still computes it
+    t = build_preset("cycles-ggx-glass-E", select={"ior": [15], "mu": [15], "roughness": [0, 1]})
+    e = ch(t, "E")
+    assert np.isfinite(e).all()
+    assert e[0, 0, 0] == 1.0  # mirror rule
+    assert e[0, 0, 1] == pytest.approx(1.0, abs=2e-3)  # energy form: R + T -> 1 as alpha -> 0
+    assert any("99.5" in note for note in t.meta["preset"]["notes"])
+
+
+def test_openpbr_dielectric_complement_order_and_duplicate_ior():
+    sel = {"ior": [3, 15, 16, 25], "roughness": [5, 20], "cos": [7, 31]}
+    t = build_preset("openpbr-ideal-dielectric", select=sel)
+    o = build_preset("openpbr-opaque-dielectric", select=sel)
+    eta = [1 / (1 + 1.5 * 12 / 15), 1.0, 1.9]
+    plain = tabulate({"table": "dielectric", "shadowing": "separable",
+                      "axes": {"mu": [7 / 31, 1.0], "roughness": [5 / 31, 20 / 31], "eta": eta}})
+    c = ch(t, "energy_complement")
+    assert c.shape == (4, 2, 2)  # [ior, roughness, cos]
+    for k, kk in enumerate([0, 1, 1, 2]):
+        rt = ch(plain, "R")[:, :, kk] + ch(plain, "T")[:, :, kk]  # [cos, roughness]
+        np.testing.assert_allclose(c[k], 1.0 - rt.T, atol=1e-12)
+        np.testing.assert_allclose(ch(o, "energy_complement")[k], 1.0 - ch(plain, "R")[:, :, kk].T, atol=1e-12)
+    np.testing.assert_array_equal(c[1], c[2])  # ior = 1 twice
+    assert "separable" in t.meta["preset"]["conventions"]["shadowing"]
+
+
+def test_openpbr_metal_is_one_minus_separable_albedo():
+    t = build_preset("openpbr-ideal-metal", select={"roughness": [8, 31], "cos": [0, 10, 31]})
+    plain = tabulate({"table": "albedo", "shadowing": "separable",
+                      "axes": {"mu": [0.0, 10 / 31, 1.0], "roughness": [8 / 31, 1.0]}})
+    np.testing.assert_allclose(ch(t, "energy_complement"), 1.0 - ch(plain, "E").T, atol=1e-12)
+    assert ch(t, "energy_complement")[1, 2] == pytest.approx(np.log(2), abs=2e-6)  # 1 - (1 - ln 2)
+
+
+@pytest.mark.parametrize("name,mu", [("filament-dfg-multiscatter", [0.5 / 128, 100.5 / 128]),
+                                     ("unity-hdrp-fgd", [0.0, (40 / 63) ** 2])])
+def test_dfg_packing_b_e(name, mu):
+    sel = {"roughness": [3, 50], "mu": [0, 40 if name.startswith("unity") else 100]}
+    t = build_preset(name, select=sel)
+    r = get_preset(name).axes()["roughness"][[3, 50]]
+    plain = tabulate({"table": "dfg", "shadowing": "correlated", "axes": {"mu": mu, "roughness": list(r)}})
+    assert list(t.axes) == ["roughness", "mu"]
+    np.testing.assert_allclose(ch(t, "B"), ch(plain, "B").T, atol=1e-12)
+    np.testing.assert_allclose(ch(t, "E"), (ch(plain, "A") + ch(plain, "B")).T, atol=1e-12)
+
+
+def test_filament_single_scatter_a_b():
+    t = build_preset("filament-dfg", select={"roughness": [127], "mu": [127]})
+    plain = tabulate({"table": "dfg", "axes": {"mu": [127.5 / 128], "roughness": [127.5 / 128]}})
+    assert ch(t, "A")[0, 0] == pytest.approx(ch(plain, "A")[0, 0], abs=1e-12)
+    assert ch(t, "B")[0, 0] == pytest.approx(ch(plain, "B")[0, 0], abs=1e-12)
+
+
+def test_average_presets():
+    t = build_preset("openpbr-ideal-dielectric-avg", select={"ior": [5, 28], "roughness": [31]})
+    plain = tabulate({"table": "dielectric_avg", "shadowing": "separable",
+                      "axes": {"roughness": [1.0], "eta": [0.5, 2.2]}})
+    want = 1.0 - (ch(plain, "R_avg") + ch(plain, "T_avg")).T  # (ior, roughness)
+    np.testing.assert_allclose(ch(t, "energy_complement"), want, atol=1e-12)
+    m = build_preset("openpbr-ideal-metal-avg", select={"roughness": [31]})
+    # separable, F = 1, alpha = 1: E runs from 2 - 2 ln 2 (mu -> 0) to 1 - ln 2 (mu = 1), so
+    # 1 - E_avg lies between 2 ln 2 - 1 and ln 2
+    assert 2 * np.log(2) - 1 < ch(m, "energy_complement")[0] < np.log(2)
+
+
+# --------------------------------------------------------------------------- against the peers' own tables
+
+
+def test_cycles_E_matches_cycles_table():
+    theirs = anchor("blender_cycles/ggx_E.npy")
+    sel = {"mu": [0, 5, 20, 31], "roughness": [0, 3, 16, 31]}
+    ours = ch(build_preset("cycles-ggx-E", select=sel), "E")
+    np.testing.assert_allclose(ours, theirs[np.ix_(sel["mu"], sel["roughness"])], atol=2e-5)
+
+
+def test_openpbr_dielectric_matches_openpbr_table_in_interior():
+    theirs = anchor("adobe_openpbr_bsdf/ideal_dielectric_energy_complement.npy")
+    sel = {"ior": [5, 20, 28], "roughness": [20, 31], "cos": [3, 16, 31]}
+    ours = ch(build_preset("openpbr-ideal-dielectric", select=sel), "energy_complement")
+    np.testing.assert_allclose(ours, theirs[np.ix_(sel["ior"], sel["roughness"], sel["cos"])], atol=2e-3)
+
+
+def test_cycles_glass_matches_cycles_table():
+    theirs = anchor("blender_cycles/ggx_glass_E.npy")
+    sel = {"ior": [7, 15], "mu": [5, 15], "roughness": [5, 15]}
+    ours = ch(build_preset("cycles-ggx-glass-E", select=sel), "E")
+    np.testing.assert_allclose(ours, theirs[np.ix_(sel["ior"], sel["mu"], sel["roughness"])], atol=4e-3)
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_presets_lists_all(capsys):
+    code, out, err = run(capsys, "presets")
+    assert code == 0
+    for name in list(PRESETS) + list(GROUPS):
+        assert name in out
+
+
+@pytest.mark.parametrize("argv,fragment", [
+    (["bake", "--preset", "nope"], "unknown preset 'nope'"),
+    (["bake", "--format", "npy"], "--format applies to --preset"),
+    (["bake", "spec.json", "--preset", "cycles-ggx-E"], "either a spec file or --preset"),
+])
+def test_cli_preset_errors_one_line_exit_2(capsys, tmp_path, argv, fragment):
+    code, out, err = run(capsys, *argv, "-o", str(tmp_path / "o"))
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bsdf-tab: error: ") and fragment in lines[0]
+    assert "Traceback" not in err
+
+
+def test_cli_bad_format_is_usage_error(capsys):
+    code, out, err = run(capsys, "bake", "--preset", "cycles-ggx-E", "--format", "tiff")
+    assert code == 2
+
+
+@pytest.fixture
+def small_presets(monkeypatch):
+    """Shrink two presets to a few texels so the CLI bakes them in well under a second."""
+    small = {
+        "cycles-ggx-Eavg": lambda: {"roughness": np.array([1e-4, 0.5, 1.0])},
+        "openpbr-ideal-metal": lambda: {"roughness": np.array([0.0, 1.0]), "cos": np.array([0.5, 1.0])},
+    }
+    for name, axes in small.items():
+        monkeypatch.setitem(PRESETS, name, dataclasses.replace(PRESETS[name], axes=axes))
+
+
+@pytest.mark.parametrize("fmt,suffix", [("exr", ".exr"), ("half-exr", ".half.exr"), ("npy", ".energy_complement.npy"),
+                                        ("h", ".h")])
+def test_cli_bake_preset_formats(capsys, tmp_path, small_presets, fmt, suffix):
+    code, out, err = run(capsys, "bake", "--preset", "openpbr-ideal-metal", "-o", str(tmp_path), "--format", fmt, "-q")
+    assert code == 0, err
+    path = tmp_path / f"openpbr_ideal_metal{suffix}"
+    assert path.exists()
+    assert str(path) in out
+    if fmt == "exr":
+        from bsdf_tab import read_exr
+
+        t = read_exr(path)
+        assert list(t.axes) == ["roughness", "cos"]
+        assert t.meta["preset"]["name"] == "openpbr-ideal-metal"
+        assert t.channels["energy_complement"][1, 1] == pytest.approx(np.log(2), abs=2e-6)
+
+
+def test_cli_bake_preset_default_format_exr(capsys, tmp_path, small_presets):
+    code, out, err = run(capsys, "bake", "--preset", "cycles-ggx-Eavg", "-o", str(tmp_path), "-q")
+    assert code == 0, err
+    assert (tmp_path / "cycles_ggx_Eavg.exr").exists()
