@@ -156,7 +156,11 @@ def _number(value: Any, param: str, where: str = "") -> float:
     """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise SpecError(param, f"{where}must be a number, got {type(value).__name__} {value!r}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:
+        # an int too large for a float64 (JSON allows arbitrary integers)
+        raise SpecError(param, f"{where}must be finite, got an integer of {len(str(value))} digits") from None
     if not math.isfinite(x):
         raise SpecError(param, f"{where}must be finite, got {value!r}")
     return x
