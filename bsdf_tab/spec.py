@@ -15,9 +15,9 @@ Axes
 ----
 An axis is either an explicit list of numbers (stored as ``{"values": [...]}``)
 or a resolution ``{"size": n, "spacing": "linear" | "square",
-"nodes": "endpoints" | "centers", "range": [lo, hi], "clamp": [c0, c1] | None}``.
-With ``t_i = i / (n - 1)`` (endpoints; ``t = 0`` when ``n = 1``) or
-``t_i = (i + 1/2) / n`` (centers):
+"nodes": "endpoints" | "centers" | "left", "range": [lo, hi], "clamp": [c0, c1] | None}``.
+With ``t_i = i / (n - 1)`` (endpoints; ``t = 0`` when ``n = 1``),
+``t_i = (i + 1/2) / n`` (centers) or ``t_i = i / n`` (left: bin starts, as MERL):
 
 - linear: ``x = lo + (hi - lo) t``
 - square: ``x = (sqrt(lo) + (sqrt(hi) - sqrt(lo)) t)^2`` (Unity's sqrt(NdotV) axis)
@@ -102,7 +102,32 @@ TABLE_KINDS: dict[str, dict[str, Any]] = {
         "fresnel": "one",
         "description": "split-sum DFG terms: E = f0 A + B for Schlick Fresnel",
     },
+    "bsdf": {
+        # axes of the default parametrization; see "parametrizations"
+        "axes": ("theta_i", "theta_o", "phi_d"),
+        "channels": ("f_r", "f_t"),
+        "fresnel": "any",
+        "methods": ("point",),
+        "params": ("alpha", "roughness", "parametrization"),
+        "parametrizations": {
+            "angles": ("theta_i", "theta_o", "phi_d"),
+            "half_diff": ("theta_h", "theta_d", "phi_d"),
+        },
+        "description": "BSDF values f_r (reflection) and f_t (transmission, dielectric Fresnel) of one "
+        "material on an angular grid: plain angles or Rusinkiewicz half/difference angles (MERL layout)",
+    },
+    "kulla_conty": {
+        "axes": ("mu", "alpha"),
+        "channels": ("E", "E_avg", "C"),
+        "fresnel": "one",
+        "description": "Kulla-Conty 2017 multiple-scattering compensation: single-scattering E (F = 1), "
+        "E_avg (repeated along mu) and C = (1 - E) / sqrt(pi (1 - E_avg)), so f_ms(i, o) = C(mu_i) C(mu_o)",
+    },
 }
+
+#: Scalar material parameters of the ``bsdf`` table: (low, high) open-closed domain, default.
+SCALAR_PARAMS: dict[str, tuple[float, float]] = {"alpha": (0.0, 4.0), "roughness": (0.0, 2.0)}
+DEFAULT_BSDF_ALPHA = 0.5
 
 #: Default resolution of each axis (used when the axis is omitted).
 AXIS_DEFAULTS: dict[str, dict[str, Any]] = {
@@ -110,6 +135,12 @@ AXIS_DEFAULTS: dict[str, dict[str, Any]] = {
     "alpha": {"size": 32, "spacing": "linear", "nodes": "endpoints", "range": [0.0, 1.0], "clamp": None},
     "roughness": {"size": 32, "spacing": "linear", "nodes": "endpoints", "range": [0.0, 1.0], "clamp": None},
     "eta": {"size": 16, "spacing": "linear", "nodes": "endpoints", "range": [1.01, 4.0], "clamp": None},
+    # bsdf angles (radians): the MERL layout, bins starting at 0 (nodes "left": t = i / n)
+    "theta_i": {"size": 90, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
+    "theta_o": {"size": 90, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
+    "theta_h": {"size": 90, "spacing": "square", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
+    "theta_d": {"size": 90, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
+    "phi_d": {"size": 180, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi], "clamp": None},
 }
 
 #: Axis domains: (low, high, low_inclusive).  The high bound is inclusive.
@@ -118,6 +149,11 @@ AXIS_DOMAINS: dict[str, tuple[float, float, bool]] = {
     "alpha": (0.0, 4.0, True),
     "roughness": (0.0, 2.0, True),
     "eta": (0.0, 10.0, False),
+    "theta_i": (0.0, math.pi / 2, True),
+    "theta_o": (0.0, math.pi / 2, True),
+    "theta_h": (0.0, math.pi / 2, True),
+    "theta_d": (0.0, math.pi / 2, True),
+    "phi_d": (0.0, 2.0 * math.pi, True),
 }
 
 DISTRIBUTIONS = {"ggx", "beckmann"}
@@ -129,16 +165,23 @@ FRESNEL_TYPES: dict[str, tuple[str, ...]] = {
     "dielectric": ("eta",),
     "conductor": ("eta", "k"),
 }
-#: Integration methods; other modules add theirs.
-METHODS = {"adaptive"}
+#: Integration methods; other modules add theirs. A kind with its own "methods" (``bsdf``:
+#: "point", exact point evaluation) accepts only those.
+METHODS = {"adaptive", "grid", "mc_cosine", "mc_dcos", "mc_vndf", "qmc_vndf", "vndf_gl"}
+#: Methods of fixed effort: the optional top-level key ``effort`` (samples or nodes per texel,
+#: a positive int; absent = the method's default) applies to them, not to ``adaptive``.
+EFFORT_METHODS = METHODS - {"adaptive"}
+MAX_EFFORT = 1 << 26
 
 DEFAULT_TOLERANCE = 5e-7
 TOLERANCE_RANGE = (1e-12, 1e-1)
 MAX_AXIS_SIZE = 4096
 SPACINGS = ("linear", "square")
-NODES = ("endpoints", "centers")
+NODES = ("endpoints", "centers", "left")
 
-TOP_LEVEL_KEYS = ("table", "distribution", "shadowing", "fresnel", "axes", "method", "tolerance")
+TOP_LEVEL_KEYS = ("table", "distribution", "shadowing", "fresnel", "axes", "method", "tolerance", "effort")
+#: Keys that only some kinds accept (TABLE_KINDS[kind]["params"]).
+KIND_KEYS = ("alpha", "roughness", "parametrization")
 AXIS_KEYS = ("size", "spacing", "nodes", "range", "clamp")
 
 
@@ -254,26 +297,41 @@ def _fresnel_params(value: dict, ftype: str) -> dict:
 # --------------------------------------------------------------------------- axes
 
 
-def _table_axis_names(kind: str, axes_in: dict) -> list[str]:
+def _kind_axes(kind: str, parametrization: str | None = None) -> tuple[str, ...]:
+    """Axis slots of a kind (of its parametrization, for kinds that have several)."""
+    info = TABLE_KINDS[kind]
+    if parametrization is not None and "parametrizations" in info:
+        return tuple(info["parametrizations"][parametrization])
+    return tuple(info["axes"])
+
+
+def _table_axis_names(kind: str, axes_in: dict, parametrization: str | None = None) -> list[str]:
     """Axis names of this spec in table order, with the roughness slot resolved."""
+    slots = _kind_axes(kind, parametrization)
+    if ROUGHNESS_SLOT not in slots:
+        return list(slots)
     given = [n for n in ROUGHNESS_NAMES if n in axes_in]
     if len(given) > 1:
         raise SpecError("axes", "give only one of alpha, roughness (alpha = roughness^2)")
     rough = given[0] if given else "alpha"
-    return [rough if n == ROUGHNESS_SLOT else n for n in TABLE_KINDS[kind]["axes"]]
+    return [rough if n == ROUGHNESS_SLOT else n for n in slots]
 
 
-def _normalize_axes(value: Any, kind: str) -> dict:
+def _normalize_axes(value: Any, kind: str, parametrization: str | None = None) -> dict:
     if value is None:
         value = {}
     if not isinstance(value, dict):
         raise SpecError("axes", f"must be an object mapping axis name -> axis spec, got {value!r}")
-    names = _table_axis_names(kind, value)
-    allowed = [n for n in TABLE_KINDS[kind]["axes"] if n != ROUGHNESS_SLOT] + list(ROUGHNESS_NAMES)
+    slots = _kind_axes(kind, parametrization)
+    names = _table_axis_names(kind, value, parametrization)
+    allowed = [n for n in slots if n != ROUGHNESS_SLOT]
+    if ROUGHNESS_SLOT in slots:
+        allowed += list(ROUGHNESS_NAMES)
     for key in value:
         if key not in allowed:
-            order = ", ".join(n if n != ROUGHNESS_SLOT else "alpha|roughness" for n in TABLE_KINDS[kind]["axes"])
-            raise SpecError(f"axes.{key}", f"unknown axis for table {kind}; allowed: {order}")
+            order = ", ".join(n if n != ROUGHNESS_SLOT else "alpha|roughness" for n in slots)
+            where = f" with parametrization {parametrization}" if parametrization else ""
+            raise SpecError(f"axes.{key}", f"unknown axis for table {kind}{where}; allowed: {order}")
     out = {}
     for name in names:
         axis = _normalize_axis(name, value.get(name))
@@ -332,6 +390,8 @@ def _node_positions(size: int, nodes: str) -> np.ndarray:
     i = np.arange(size, dtype=np.float64)
     if nodes == "centers":
         return (i + 0.5) / size
+    if nodes == "left":
+        return i / size
     if size == 1:
         return np.zeros(1)
     return i / (size - 1)
@@ -349,6 +409,8 @@ def _spaced(axis: dict) -> np.ndarray:
         x[0] = lo
         if axis["size"] > 1:
             x[-1] = hi
+    elif axis["nodes"] == "left":
+        x[0] = lo
     if axis["clamp"] is not None:
         x = np.clip(x, axis["clamp"][0], axis["clamp"][1])
     return x
@@ -416,7 +478,9 @@ def normalize_spec(spec: dict | str) -> dict:
     -------
     dict
         A new dict with keys ``table``, ``distribution``, ``shadowing``,
-        ``fresnel``, ``axes`` (in table axis order), ``method``, ``tolerance``.
+        ``fresnel``, ``axes`` (in table axis order), ``method``, ``tolerance``;
+        the ``bsdf`` table also has ``parametrization`` and ``alpha`` (or
+        ``roughness``), its single material's width parameter.
         Idempotent: ``normalize_spec(normalize_spec(s)) == normalize_spec(s)``.
 
     Raises
@@ -425,19 +489,73 @@ def normalize_spec(spec: dict | str) -> dict:
         With ``param`` naming the offending parameter.
     """
     spec = _parse(spec)
-    _check_keys(spec, TOP_LEVEL_KEYS, "")
+    _check_keys(spec, TOP_LEVEL_KEYS + KIND_KEYS, "")
     if "table" not in spec:
         raise SpecError("table", f"is required; {_one_of(TABLE_KINDS)}")
     kind = _choice(spec["table"], TABLE_KINDS, "table")
-    return {
+    info = TABLE_KINDS[kind]
+    own = info.get("params", ())
+    for key in KIND_KEYS:
+        if key in spec and key not in own:
+            hint = f"; for table {kind} {key} is an axis: give axes.{key}" if key in ROUGHNESS_NAMES else ""
+            raise SpecError(key, f"is not a parameter of table {kind}{hint}")
+    methods = info.get("methods", METHODS)
+    out = {
         "table": kind,
         "distribution": _choice(spec.get("distribution", "ggx"), DISTRIBUTIONS, "distribution"),
         "shadowing": _choice(spec.get("shadowing", "correlated"), SHADOWINGS, "shadowing"),
         "fresnel": _normalize_fresnel(spec.get("fresnel"), kind),
-        "axes": _normalize_axes(spec.get("axes"), kind),
-        "method": _choice(spec.get("method", "adaptive"), METHODS, "method"),
-        "tolerance": _normalize_tolerance(spec.get("tolerance", DEFAULT_TOLERANCE)),
     }
+    parametrization = None
+    if "parametrizations" in info:
+        parametrization = _normalize_parametrization(spec, kind)
+        out["parametrization"] = parametrization
+    if "alpha" in own:
+        out.update(_normalize_scalar_alpha(spec))
+    out["axes"] = _normalize_axes(spec.get("axes"), kind, parametrization)
+    out["method"] = _choice(spec.get("method", sorted(methods)[0] if "methods" in info else "adaptive"), methods, "method")
+    out["tolerance"] = _normalize_tolerance(spec.get("tolerance", DEFAULT_TOLERANCE))
+    if spec.get("effort") is not None:
+        out["effort"] = _normalize_effort(spec["effort"], out["method"])
+    return out
+
+
+def _normalize_effort(value: Any, method: str) -> int:
+    """Samples or nodes per texel of a fixed-effort method (absent: the method's default)."""
+    if method not in EFFORT_METHODS:
+        raise SpecError("effort", f"is not a parameter of method {method} (it is error-controlled: give tolerance)")
+    effort = _integer(value, "effort")
+    if not 8 <= effort <= MAX_EFFORT:
+        raise SpecError("effort", f"must be in [8, {MAX_EFFORT}], got {effort}")
+    return effort
+
+
+def _normalize_parametrization(spec: dict, kind: str) -> str:
+    """The parametrization given, or inferred from the axis names (default: the first one)."""
+    options = TABLE_KINDS[kind]["parametrizations"]
+    if "parametrization" in spec:
+        return _choice(spec["parametrization"], options, "parametrization")
+    axes = spec.get("axes")
+    if isinstance(axes, dict):
+        for name, slots in options.items():
+            if axes and all(key in slots for key in axes):
+                return name
+    return next(iter(options))
+
+
+def _normalize_scalar_alpha(spec: dict) -> dict:
+    """``{"alpha": a}`` or ``{"roughness": r}`` (alpha = r^2) of a one-material table."""
+    given = [n for n in ROUGHNESS_NAMES if n in spec]
+    if len(given) > 1:
+        raise SpecError("alpha", "give only one of alpha, roughness (alpha = roughness^2)")
+    name = given[0] if given else "alpha"
+    value = _number(spec.get(name, DEFAULT_BSDF_ALPHA), name)
+    lo, hi = SCALAR_PARAMS[name]
+    if not lo < value <= hi:
+        raise SpecError(
+            name, f"must be in ({lo:g}, {hi:g}], got {value!r} (0 is a mirror: a Dirac delta has no point values)"
+        )
+    return {name: value}
 
 
 def _normalize_tolerance(value: Any) -> float:

@@ -44,5 +44,6 @@ from .fresnel import (
     fresnel,
 )
 from .bsdf import brdf, btdf
+from .multiscatter import kc_f_ms, kc_F_ms, kc_lobe, kc_C, fresnel_avg, lerp_grid_1d, lerp_grid_2d
 
 __all__ = [name for name in dir() if not name.startswith("_")]

@@ -8,7 +8,7 @@ Adding a table kind: a module here, one line in :data:`COMPUTE`, one entry in
 
 from __future__ import annotations
 
-from . import albedo, dielectric, dfg
+from . import albedo, bsdf, dielectric, dfg, multiscatter
 from ._common import Context
 
 COMPUTE = {
@@ -17,6 +17,8 @@ COMPUTE = {
     "dielectric": dielectric.compute,
     "dielectric_avg": dielectric.compute_avg,
     "dfg": dfg.compute,
+    "bsdf": bsdf.compute,
+    "kulla_conty": multiscatter.compute,
 }
 
 __all__ = ["COMPUTE", "Context"]
