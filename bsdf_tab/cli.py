@@ -160,6 +160,13 @@ def _bake_one(args: argparse.Namespace) -> int:
     if not out.parent.is_dir():
         raise CliError(f"output folder does not exist: {out.parent}")
     tabulate = _tabulate(args)
+    if spec["table"] == "bsdf" and out.suffix.lower() in (".exr", ".npz"):
+        # directional tables can be large: computed and written in slices (bounded memory)
+        from .tables.bsdf import bake_bsdf_streaming
+
+        table = bake_bsdf_streaming(spec, out, device=args.device, workers=args.workers, progress=not args.quiet)
+        print(_summary(out, table))
+        return 0
     table = tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
     _save(table, out)
     print(_summary(out, table))
@@ -308,6 +315,35 @@ def cmd_info(args: argparse.Namespace) -> int:
 register_command("bake", "bake a spec file (or the default set) to EXR", _configure_bake, cmd_bake)
 register_command("info", "describe a table file", _configure_info, cmd_info)
 register_command("presets", "list the engine presets (bake one with bake --preset NAME)", lambda parser: None, cmd_presets)
+
+
+def _configure_bench(parser: argparse.ArgumentParser) -> None:
+    from .benchmarks.accuracy import configure_parser
+
+    sub = parser.add_subparsers(dest="bench", metavar="BENCH")
+    acc = sub.add_parser(
+        "accuracy",
+        help="every integration method: error against time, Pareto front, heatmaps, honesty",
+        description="Accuracy against speed of every integration method, judged by the independent "
+        "reference (needs a source checkout); writes JSON and PNGs (default: bench/out/).",
+    )
+    configure_parser(acc)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Run a benchmark (``accuracy``)."""
+    if getattr(args, "bench", None) != "accuracy":
+        raise CliError("choose a benchmark: bsdf-tab bench accuracy [--quick]")
+    _quiet_warp(args)
+    from .benchmarks.accuracy import main_from_args
+
+    try:
+        return main_from_args(args)
+    except RuntimeError as exc:
+        raise CliError(str(exc)) from None
+
+
+register_command("bench", "run a benchmark (accuracy: every method, error against time)", _configure_bench, cmd_bench)
 try:  # the HTTP service registers `serve` (service/cli.py); absent in a library-only install
     from service.cli import register as _register_serve
 except ImportError:

@@ -345,9 +345,11 @@ def bake_bsdf_streaming(
 
     Notes
     -----
-    Values go to a memory-mapped temporary ``.npy`` next to the output (float32 for EXR,
-    float64 for npz), because the metadata (``max_error``) precedes the pixels in both
-    formats; the file is then written in blocks of scanlines and the temporary removed.
+    Values go to a raw temporary file next to the output (channel-major; float32 for EXR,
+    float64 for npz) with plain writes, because the metadata (``max_error``) precedes the
+    pixels in both formats; the output is then written block by block from it and the
+    temporary removed. Memory (resident) stays at a few blocks, disk needs about twice the
+    output's uncompressed size.
     """
     nspec = normalize_spec(spec)
     if nspec["table"] != "bsdf":
@@ -366,33 +368,53 @@ def bake_bsdf_streaming(
     ctx = Context(dev, workers, callback)
     dtype = np.float32 if suffix == ".exr" else np.float64
     tag = f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}"
-    scratch = folder / (tag + ".npy")
+    scratch = folder / (tag + ".raw")
     tmp_out = folder / (tag + ".tmp" + suffix)
     max_err = {"f_r": 0.0, "f_t": 0.0}
     try:
-        mm = np.lib.format.open_memmap(scratch, mode="w+", dtype=dtype, shape=(4,) + shape)
         step = max(1, block_texels // (shape[1] * shape[2]))
-        try:
-            for start, end, vals in _iter_blocks(nspec, axes, ctx, block_texels):
-                mm[:, start:end] = vals
-                max_err["f_r"] = max(max_err["f_r"], float(vals[2].max()))
-                max_err["f_t"] = max(max_err["f_t"], float(vals[3].max()))
-        finally:
-            if bar is not None:
-                bar.close()
-        mm.flush()
-        meta = _meta(nspec, max_err)
-        if suffix == ".exr":
-            _write_exr_blocks(mm, axes, meta, tmp_out, step)
-        else:
-            _write_npz(mm, axes, meta, tmp_out)
-        del mm
+        with open(scratch, "w+b") as raw:
+            store = _Scratch(raw, shape, dtype)
+            try:
+                for start, end, vals in _iter_blocks(nspec, axes, ctx, block_texels):
+                    store.write(start, vals)
+                    max_err["f_r"] = max(max_err["f_r"], float(vals[2].max()))
+                    max_err["f_t"] = max(max_err["f_t"], float(vals[3].max()))
+            finally:
+                if bar is not None:
+                    bar.close()
+            meta = _meta(nspec, max_err)
+            if suffix == ".exr":
+                _write_exr_blocks(store, axes, meta, tmp_out, step)
+            else:
+                _write_npz(store, axes, meta, tmp_out)
         os.replace(tmp_out, path)
     finally:
         for p in (scratch, tmp_out):
             if p.exists():
                 p.unlink()
     return StreamedTable(axes, meta)
+
+
+class _Scratch:
+    """Channel-major (4, n0, n1, n2) values in a raw file, written and read by axis-0 blocks."""
+
+    def __init__(self, fh, shape: tuple[int, int, int], dtype):
+        self.fh = fh
+        self.shape = shape
+        self.dtype = np.dtype(dtype)
+        self.slice_bytes = shape[1] * shape[2] * self.dtype.itemsize
+        self.plane_bytes = shape[0] * self.slice_bytes
+
+    def write(self, start: int, vals: np.ndarray) -> None:
+        for c in range(vals.shape[0]):
+            self.fh.seek(c * self.plane_bytes + start * self.slice_bytes)
+            self.fh.write(np.ascontiguousarray(vals[c], dtype=self.dtype).tobytes())
+
+    def read(self, c: int, start: int, end: int) -> np.ndarray:
+        self.fh.seek(c * self.plane_bytes + start * self.slice_bytes)
+        data = self.fh.read((end - start) * self.slice_bytes)
+        return np.frombuffer(data, dtype=self.dtype).reshape((end - start,) + self.shape[1:])
 
 
 class _HeaderView:
@@ -404,18 +426,18 @@ class _HeaderView:
         self.channels = dict.fromkeys(CHANNELS)
 
 
-def _write_exr_blocks(mm: np.ndarray, axes: dict, meta: dict, out: Path, step: int) -> None:
+def _write_exr_blocks(store: _Scratch, axes: dict, meta: dict, out: Path, step: int) -> None:
     import OpenEXR
 
     from ..exr import ATTR_PREFIX, _header
 
-    n0, n1, n2 = mm.shape[1:]
+    n0, n1, n2 = store.shape
     height, width = n0 * n1, n2
     attrs = {k: v for k, v in _header(_HeaderView(axes, meta)).items() if k.startswith(ATTR_PREFIX)}
     if not hasattr(OpenEXR, "OutputFile"):  # pragma: no cover - OpenEXR without the scanline writer
         from ..table import Table
 
-        Table(axes, {name: mm[c] for c, name in enumerate(CHANNELS)}, meta).write_exr(out)
+        Table(axes, {name: store.read(c, 0, n0) for c, name in enumerate(CHANNELS)}, meta).write_exr(out)
         return
     header = OpenEXR.Header(width, height)
     proto = header["channels"]["R"]  # a FLOAT channel description
@@ -428,16 +450,15 @@ def _write_exr_blocks(mm: np.ndarray, axes: dict, meta: dict, out: Path, step: i
             end = min(n0, start + step)
             rows = (end - start) * n1
             exr.writePixels(
-                {name: np.ascontiguousarray(mm[c, start:end], dtype=np.float32).tobytes() for c, name in enumerate(CHANNELS)},
+                {name: store.read(c, start, end).astype(np.float32).tobytes() for c, name in enumerate(CHANNELS)},
                 rows,
             )
     finally:
         exr.close()
-    assert height == n0 * n1 and width == n2
 
 
-def _write_npz(mm: np.ndarray, axes: dict, meta: dict, out: Path) -> None:
-    """The archive of :meth:`Table.to_npz_bytes`, each member streamed from the memmap."""
+def _write_npz(store: _Scratch, axes: dict, meta: dict, out: Path) -> None:
+    """The archive of :meth:`Table.to_npz_bytes`, each channel member streamed by blocks."""
     import json
 
     from ..table import json_default
@@ -452,7 +473,14 @@ def _write_npz(mm: np.ndarray, axes: dict, meta: dict, out: Path) -> None:
 
         for name, arr in small.items():
             member(name, arr)
+        n0 = store.shape[0]
+        step = max(1, (1 << 23) // store.slice_bytes)
         for c, name in enumerate(CHANNELS):
-            member(f"channel/{name}", mm[c])
+            with zf.open(f"channel/{name}.npy", "w", force_zip64=True) as fh:
+                header = {"descr": np.lib.format.dtype_to_descr(store.dtype), "fortran_order": False,
+                          "shape": store.shape}
+                np.lib.format.write_array_header_1_0(fh, header)
+                for start in range(0, n0, step):
+                    fh.write(store.read(c, start, min(n0, start + step)).tobytes())
         member("channel_order", np.array(list(CHANNELS), dtype=str))
         member("meta", np.array(json.dumps(meta, default=json_default)))
