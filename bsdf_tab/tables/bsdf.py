@@ -28,7 +28,8 @@ divisions, and K the conditioning of the half-vector: the rounded h has |delta c
 8 eps (reflection) or 8 eps (1 + eta) / |i + eta o| (transmission), amplified by
 |d ln D / d cos theta_h| (GGX 4/c + 4/(c (alpha^2 c^2 + 1 - c^2)), Beckmann 4/c + 2/(c^3 alpha^2)),
 by the Fresnel slope 1/g near the critical angle (dielectric, g = sqrt(eta^2 - 1 + c^2)), and
-for transmission by 2x the relative error of the denominator (i.h) + eta (o.h) (= |i + eta o|).
+for transmission by 2x the relative error of the denominator (i.h) + eta (o.h) (= |i + eta o|)
+and by the cancellation in 1 - F near total internal reflection ((16 + amp/g) / (1 - F)).
 Stored EXR channels are float32 (relative rounding 2^-24 on top).
 
 Memory: :func:`bake_bsdf_streaming` computes blocks of theta slices (axis 0) and writes them
@@ -49,7 +50,7 @@ import numpy as np
 import warp as wp
 
 from ..integrate.parallel import default_workers, resolve_device, run_chunks
-from ..model import BECKMANN, FRESNEL_DIELECTRIC, brdf, btdf
+from ..model import BECKMANN, FRESNEL_DIELECTRIC, brdf, btdf, fresnel_dielectric
 from ..spec import normalize_spec, resolve_axes
 from ._common import Context, integrator_params
 
@@ -163,8 +164,13 @@ def _bsdf_block_kernel(
             if h[2] < wp.float64(0.0):
                 h = -h
             amp = wp.float64(8.0) * (one + p0) / hl
-            kappa = _dlnD_dc(h[2], alpha, dist) + _fresnel_slope(wp.dot(wi, h), ftype, p0) + wp.float64(2.0)
-            et = wp.abs(ft) * eps * (wp.float64(EPS_REL) + amp * kappa)
+            ci = wp.dot(wi, h)
+            slope = _fresnel_slope(ci, ftype, p0)
+            kappa = _dlnD_dc(h[2], alpha, dist) + slope + wp.float64(2.0)
+            # 1 - F cancels near total internal reflection: abs. error of F over 1 - F
+            tr = one - fresnel_dielectric(ci, p0)
+            cancel = (wp.float64(16.0) + amp * slope) / wp.max(tr, wp.float64(1.0e-300))
+            et = wp.abs(ft) * eps * (wp.float64(EPS_REL) + amp * kappa + cancel)
     out[0, k] = fr
     out[1, k] = ft
     out[2, k] = er
