@@ -30,6 +30,9 @@ def fresnel_dielectric(cos_i: Any, eta: Any):
     """Exact unpolarized Fresnel for relative IOR ``eta`` = eta_t / eta_i (Walter eq. 22)."""
     zero = type(eta)(0.0)
     one = type(eta)(1.0)
+    if eta == one:
+        # no interface: nothing is reflected, also at grazing where g = c = 0
+        return zero
     c = wp.min(wp.abs(cos_i), one)
     g2 = eta * eta - one + c * c
     if g2 <= zero:
