@@ -5,12 +5,14 @@ The cells are equal in solid angle (dw = d(cos theta) dphi); phi covers [0, pi] 
 hemisphere: n_z = ~sqrt(N / 2) rings of n_phi = 2 n_z cells (both even). Transmission uses the
 same grid mirrored into the lower hemisphere.
 
-Error channel: |Q(n) - Q(n/2)| (the rule again on the grid of half the resolution in both
+Error channel: 3 |Q(n) - Q(n/2)| (the rule again on the grid of half the resolution in both
 directions; the midpoint rule is O(h^2), so this is ~3x the error of the fine grid when the
-integrand is resolved), and 1 when the grid cannot resolve the lobe: the cell size at the
+integrand is smooth; the factor 3 covers the kinks at the horizon and the critical angle),
+floored at 1 / (coarse cells), and 1 when the grid cannot resolve the lobe: twice the coarse cell size at the
 mirror (or refraction) direction exceeds the lobe width (~2 alpha in reflection, alpha
 |eta - 1| / eta in transmission). Near-mirror alpha, normal incidence (the (z, phi) grid is
-coarse at the pole) and eta near 1 are therefore flagged, not silently wrong.
+coarse at the pole), grazing incidence (the reflected lobe is a thin layer above the horizon;
+in transmission G / mu varies on the scale |z_o| ~ mu) and eta near 1 are therefore flagged, not silently wrong.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import warp as wp
 from ._fixed import PI64, Tex, finalize, launch_texels, make_tex, mirror, o_terms, store
 
 DEFAULT_EFFORT = 65536
+SAFETY = 3.0  # times |Q(n) - Q(n/2)|
+LOBE_CELLS = 2.0  # the lobe must span this many coarse cells
 
 
 def grid_shape(effort: int) -> tuple[int, int]:
@@ -70,7 +74,11 @@ def grid_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float64),
         fine = wp.vec2d(fine[0], ft[1])
         coarse = wp.vec2d(coarse[0], ct[1])
     d = fine - coarse
-    store(value, error, i, fine, wp.vec2d(wp.abs(d[0]), wp.abs(d[1])))
+    # a feature narrower than a coarse cell is invisible to both grids: floor at one cell's share
+    floor = wp.float64(4.0) / wp.float64(2 * nz * nz)
+    e0 = wp.max(floor, wp.float64(SAFETY) * wp.abs(d[0]))
+    e1 = wp.max(floor, wp.float64(SAFETY) * wp.abs(d[1]))
+    store(value, error, i, fine, wp.vec2d(e0, e1))
 
 
 def _cell_size(nz: int, sin_theta: np.ndarray) -> np.ndarray:
@@ -98,7 +106,10 @@ def integrate_texels(mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=0,
     if values.size:
         # resolution guard at the lobe centres, judged on the coarse grid of the pair
         sin_i = np.sqrt(np.clip(1.0 - mu * mu, 0.0, 1.0))
-        blind_r = _cell_size(nz // 2, sin_i) > 2.0 * alpha
+        blind_r = LOBE_CELLS * _cell_size(nz // 2, sin_i) > 2.0 * alpha
+        # grazing: the reflected lobe is squeezed into a layer of height ~2 alpha max(mu, 2 alpha)
+        # above the horizon, which the rings in z must resolve too
+        blind_r |= LOBE_CELLS * 2.0 / nz > 2.0 * alpha * np.maximum(mu, 2.0 * alpha)
         if mode == "dfg":
             errors[blind_r] = 1.0
         else:
@@ -106,7 +117,9 @@ def integrate_texels(mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=0,
         if mode == "dielectric":
             sin_t = np.clip(sin_i / eta, 0.0, 1.0)
             w_t = alpha * np.abs(eta - 1.0) / np.maximum(eta, 1.0)
-            errors[_cell_size(nz // 2, sin_t) > w_t, 1] = 1.0
+            errors[LOBE_CELLS * _cell_size(nz // 2, sin_t) > w_t, 1] = 1.0
+            # grazing incidence: G / mu varies on the scale z_o ~ mu below the horizon
+            errors[LOBE_CELLS * 2.0 / nz > mu, 1] = 1.0
     return finalize(mode, values, errors, alpha)
 
 

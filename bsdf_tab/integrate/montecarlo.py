@@ -19,10 +19,12 @@ exactly.
 Error channel (honest, never small when the estimate is unreliable):
 
 * MC: 4 sigma_hat / sqrt(N) (sample variance) + 7 W / N, where W bounds the weights (1 for
-  VNDF, the largest weight seen for the others): a region of probability >= 7/N is missed with
+  VNDF; for D(m)cos the weight at the tan theta_m exceeded with probability 7 / N, or the largest
+  weight seen; for cosine sampling the largest weight seen): a region of probability >= 7/N is missed with
   probability < 1e-3, and a smaller one contributes at most 7 W / N.
 * mc_cosine also gets error 1 when the narrowest lobe of the integrand (width ~2 alpha in
-  reflection, alpha |eta - 1| / eta in transmission) is expected to hold fewer than 64 samples.
+  reflection, alpha |eta - 1| / eta in transmission) is expected to hold fewer than 64 samples,
+  and transmission gets error 1 when the layer |z_o| < mu (grazing mu) holds fewer than 64.
 * QMC: t-quantile (7 dof, 99.95%) times the standard error of the 8 replicate means, + 7/N.
 """
 
@@ -132,7 +134,12 @@ def mc_dcos_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
         s += w
         q += wp.cw_mul(w, w)
         wmax = wp.max(wmax, wp.max(w[0], w[1]))
-    mean, err = _finish(s, q, wmax, effort)
+    # the D cos weight is the VNDF weight (<= 1) times (i.m) / (cos theta_m (mu + mu Lambda_i)),
+    # unbounded in tan theta_m: bound it at the tan theta_m that N samples exceed with
+    # probability ~7 / N (GGX tail; used for Beckmann too, whose tail is lighter)
+    t_star = p.alpha * wp.sqrt(wp.float64(effort) / wp.float64(7.0))
+    w_bound = (p.sin_i * t_star + p.mu) / wp.max(p.mu + p.li, wp.float64(1.0e-300))
+    mean, err = _finish(s, q, wp.max(wmax, w_bound), effort)
     store(value, error, i, mean, err)
 
 
@@ -287,6 +294,10 @@ def _run(name, kernel, mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=
         w = lobe_width(mode, mu, alpha, eta)
         blind = (effort * w * w < COSINE_MIN_LOBE_SAMPLES) & (alpha > 0)
         errors[blind] = 1.0
+        if mode == "dielectric":
+            # grazing: the transmitted integrand varies on the scale |z_o| ~ mu, a layer that
+            # holds ~N mu^2 cosine samples
+            errors[(effort * mu * mu < COSINE_MIN_LOBE_SAMPLES) & (alpha > 0), 1] = 1.0
     return finalize(mode, values, errors, alpha)
 
 

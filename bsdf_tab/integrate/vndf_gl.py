@@ -8,8 +8,11 @@ nothing; its kinks and jumps (horizons, total internal reflection) slow the conv
 Gauss-Legendre to algebraic. Mitsuba 3 builds its roughplastic tables this way.
 
 ``effort`` N is the number of nodes: an n x n product rule, n = ~sqrt(N) (even).
-Error channel: 2 |Q(n) - Q(n/2)| (the rule again at half the order in both directions: a
-quarter more evaluations), floored at 1e-13.
+Error channel: 4 |Q(n) - Q(n/2)| (the rule again at half the order in both directions: a
+quarter more evaluations), floored at 1 / (n/2)^2 (one coarse cell: a feature narrower than that
+is invisible to both rules, and the weight is at most 1). With the jumps of the weight the
+difference of two Gauss-Legendre orders is not a reliable bound: the benchmark measures how often
+it fails (bsdf_tab/benchmarks/accuracy.py).
 """
 
 from __future__ import annotations
@@ -21,10 +24,10 @@ import numpy as np
 import warp as wp
 
 from ..model.distribution import sample_vndf
-from ._fixed import Tex, finalize, launch_texels, m_terms, make_tex, mirror, store
+from ._fixed import PI64, Tex, finalize, launch_texels, m_terms, make_tex, mirror, store
 
 DEFAULT_EFFORT = 4096
-SAFETY = 2.0
+SAFETY = 4.0
 
 
 @lru_cache(maxsize=None)
@@ -42,12 +45,18 @@ def order(effort: int) -> int:
 def _product(p: Tex, wi: wp.vec3d, x: wp.array(dtype=wp.float64), w: wp.array(dtype=wp.float64)):
     n = x.shape[0]
     acc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    half_pi = wp.float64(0.5) * PI64
     for a in range(n):
+        # u1 = sin^2(pi t / 2): the disk radius sqrt(u1) = sin(pi t / 2) and the height
+        # sqrt(1 - u1) of the sampled hemisphere are both smooth in t
+        st = wp.sin(half_pi * x[a])
+        u1 = st * st
+        du1 = half_pi * wp.sin(PI64 * x[a])
         row = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
         for b in range(n):
-            m = sample_vndf(wi, p.alpha, x[a], x[b], p.dist)
+            m = sample_vndf(wi, p.alpha, u1, x[b], p.dist)
             row += w[b] * m_terms(p, m)
-        acc += w[a] * row
+        acc += (w[a] * du1) * row
     return acc * (p.mu + p.li)  # (G / mu)(mu + mu Lambda_i) = G / G1(i)
 
 
@@ -68,7 +77,10 @@ def vndf_gl_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
     fine = _product(p, wi, xf, wf)
     coarse = _product(p, wi, xc, wc)
     d = fine - coarse
-    floor = wp.float64(1.0e-13)
+    # a feature narrower than one cell of the coarse rule is invisible to both: its mass (the
+    # weight is <= 1) is at most about one coarse cell
+    nc = wp.float64(xc.shape[0])
+    floor = wp.float64(1.0) / (nc * nc)
     e = wp.vec2d(wp.max(floor, wp.float64(SAFETY) * wp.abs(d[0])), wp.max(floor, wp.float64(SAFETY) * wp.abs(d[1])))
     store(value, error, i, fine, e)
 

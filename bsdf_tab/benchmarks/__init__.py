@@ -1,0 +1,1 @@
+"""Benchmarks importable from the package (run them with ``bsdf-tab bench NAME``)."""
