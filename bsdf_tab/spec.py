@@ -70,7 +70,10 @@ ROUGHNESS_NAMES = ("alpha", "roughness")
 #: for the roughness slot (``alpha`` or ``roughness``); ``channels``: value
 #: channel names (each also gets an ``<X>_err`` error channel); ``fresnel``:
 #: ``"any"`` (a fresnel parameter), ``"axis"`` (dielectric with eta from the
-#: ``eta`` axis) or ``"one"`` (Fresnel-independent, F = 1 only).
+#: ``eta`` axis) or ``"one"`` (Fresnel-independent, F = 1 only). Optional: ``methods`` (the
+#: only methods the kind accepts, the first sorted is the default), ``params`` (kind-only
+#: top-level keys, see :data:`KIND_KEYS`) and ``parametrizations`` (name -> axis slots; the
+#: ``axes`` entry is the default one's).
 TABLE_KINDS: dict[str, dict[str, Any]] = {
     "albedo": {
         "axes": ("mu", "alpha"),
