@@ -18,17 +18,26 @@ _METHOD_TEXT = {
     "adaptive": "nested adaptive Gauss-Kronrod (G7-K15) over micro-normal space, split at the "
     "closed-form horizon / critical-angle curves; error = sum of |K15 - G7| over accepted "
     "intervals plus propagated inner errors",
+    "point": "float64 point evaluation of the BSDF (Walter eqs. 20 and 21); error = rounding bound",
 }
 
 
 def conventions(nspec: dict) -> dict:
     """Human- and machine-readable conventions recorded in every table's metadata."""
-    rough = "roughness" if "roughness" in nspec["axes"] else "alpha"
+    rough = "roughness" if "roughness" in nspec["axes"] or "roughness" in nspec else "alpha"
+    if nspec["table"] == "bsdf":
+        alpha_text = f"scalar material alpha = {nspec.get('alpha')}"
+        if "roughness" in nspec:
+            alpha_text = f"scalar material roughness = {nspec['roughness']} (alpha = roughness^2)"
+    elif rough == "roughness":
+        alpha_text = "alpha = roughness^2"
+    else:
+        alpha_text = "alpha axis is alpha itself"
     conv = {
         "reference": "Walter et al. 2007, Microfacet Models for Refraction through Rough Surfaces",
         "frame": "macro normal n = +z; w_i = (sqrt(1 - mu^2), 0, mu); directions point away",
         "roughness_axis": rough,
-        "alpha": "alpha = roughness^2" if rough == "roughness" else "alpha axis is alpha itself",
+        "alpha": alpha_text,
         "distribution": nspec["distribution"],
         "shadowing": nspec["shadowing"],
         "shadowing_definition": _SHADOWING_TEXT[nspec["shadowing"]],
@@ -37,6 +46,9 @@ def conventions(nspec: dict) -> dict:
     if nspec["table"].startswith("dielectric"):
         conv["eta"] = "eta = eta_o / eta_i: IOR beyond the interface over IOR on the side of w_i"
         conv["transmission"] = "energy form: T = int f_t |cos theta_o| dw_o, R + T -> 1 as alpha -> 0"
+    if nspec["table"] == "bsdf":
+        conv["parametrization"] = nspec.get("parametrization")
+        conv["angles"] = "radians; phi_d = phi_o - phi_i; f_t's theta_o measured from -n"
     if nspec["table"].endswith("_avg"):
         conv["average"] = "X_avg = 2 int_0^1 X(mu) mu dmu"
     return conv

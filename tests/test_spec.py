@@ -232,7 +232,9 @@ def test_bad_input_raises_spec_error_naming_param(spec, param):
 
 
 def test_messages_say_what_is_allowed():
-    assert "must be one of albedo, albedo_avg, dfg, dielectric, dielectric_avg" in str(spec_error({"table": "x"}))
+    msg = str(spec_error({"table": "x"}))
+    assert "must be one of" in msg
+    assert all(kind in msg for kind in ("albedo", "albedo_avg", "dfg", "dielectric", "dielectric_avg"))
     assert "must be > 0" in str(spec_error({"table": "albedo", "fresnel": {"type": "dielectric", "eta": 0}}))
     assert "finite" in str(spec_error({"table": "albedo", "axes": {"mu": [float("nan")]}}))
     assert "strictly increasing" in str(spec_error({"table": "albedo", "axes": {"mu": [0.5, 0.2]}}))
