@@ -151,7 +151,7 @@ AXIS_DOMAINS: dict[str, tuple[float, float, bool]] = {
     "mu": (0.0, 1.0, True),
     "alpha": (0.0, 4.0, True),
     "roughness": (0.0, 2.0, True),
-    "eta": (0.0, 10.0, False),
+    "eta": (0.0, 100.0, False),
     "theta_i": (0.0, math.pi / 2, True),
     "theta_o": (0.0, math.pi / 2, True),
     "theta_h": (0.0, math.pi / 2, True),

@@ -177,7 +177,7 @@ BAD = [
     ({"table": "albedo", "axes": {"mu": [0.5, 1.5]}}, "axes.mu"),
     ({"table": "dielectric", "axes": {"eta": [0.0, 1.5]}}, "axes.eta"),
     ({"table": "dielectric", "axes": {"eta": [-1.0]}}, "axes.eta"),
-    ({"table": "dielectric", "axes": {"eta": [11.0]}}, "axes.eta"),
+    ({"table": "dielectric", "axes": {"eta": [101.0]}}, "axes.eta"),
     ({"table": "albedo", "axes": {"alpha": [0.1, float("nan")]}}, "axes.alpha"),
     ({"table": "albedo", "axes": {"mu": [0.1, float("inf")]}}, "axes.mu"),
     ({"table": "albedo", "axes": {"mu": [True, 0.5]}}, "axes.mu"),
