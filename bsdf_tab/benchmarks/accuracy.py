@@ -406,7 +406,7 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
     xmax = max(s["evals_per_texel"] for s in summary)
     for k, p in enumerate(peers or []):
         x = p["samples_per_texel"] or xmax * 4
-        ax.plot(x, max(p["mean_abs_err"], floor), marker="**sDP"[k % 5] if False else "*", ms=16,
+        ax.plot(x, max(p["mean_abs_err"], floor), marker="*", ms=16,
                 color=f"C{k + 6}", ls="none",
                 label=f"{p['name']} (mean {p['mean_abs_err']:.1e}, max {p['max_abs_err']:.1e})"
                 + ("" if p["samples_per_texel"] else " [samples unknown]"))
@@ -416,7 +416,7 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
     ax.set_ylabel("mean absolute error vs reference")
     ax.set_title("error vs samples, peer tables as stars")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=7, loc="upper right")
     sub = "quick" if result.get("quick") else "full"
     fig.suptitle(f"bsdf-tab accuracy vs speed ({sub} sweep: {len(result['cases'])} cases x "
                  f"{len(result['axes']['mu']) * len(result['axes']['alpha'])} texels)", fontsize=12)

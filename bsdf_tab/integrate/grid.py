@@ -12,7 +12,7 @@ floored at 1 / (coarse cells), and 1 when the grid cannot resolve the lobe: twic
 mirror (or refraction) direction exceeds the lobe width (~2 alpha in reflection, alpha
 |eta - 1| / eta in transmission). Near-mirror alpha, normal incidence (the (z, phi) grid is
 coarse at the pole), grazing incidence (the reflected lobe is a thin layer above the horizon;
-in transmission G / mu varies on the scale |z_o| ~ mu) and eta near 1 are therefore flagged, not silently wrong.
+G / mu varies on the scale |z_o| ~ mu) and eta near 1 are therefore flagged, not silently wrong.
 """
 
 from __future__ import annotations
@@ -110,6 +110,10 @@ def integrate_texels(mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=0,
         # grazing: the reflected lobe is squeezed into a layer of height ~2 alpha max(mu, 2 alpha)
         # above the horizon, which the rings in z must resolve too
         blind_r |= LOBE_CELLS * 2.0 / nz > 2.0 * alpha * np.maximum(mu, 2.0 * alpha)
+        # grazing incidence: G / mu varies on the scale |z_o| ~ mu next to the horizon (both
+        # hemispheres), which the coarse rings must resolve
+        grazing = (LOBE_CELLS * 2.0 / nz > mu) & (alpha > 0)
+        errors[grazing] = 1.0
         if mode == "dfg":
             errors[blind_r] = 1.0
         else:
@@ -118,8 +122,6 @@ def integrate_texels(mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=0,
             sin_t = np.clip(sin_i / eta, 0.0, 1.0)
             w_t = alpha * np.abs(eta - 1.0) / np.maximum(eta, 1.0)
             errors[LOBE_CELLS * _cell_size(nz // 2, sin_t) > w_t, 1] = 1.0
-            # grazing incidence: G / mu varies on the scale z_o ~ mu below the horizon
-            errors[LOBE_CELLS * 2.0 / nz > mu, 1] = 1.0
     return finalize(mode, values, errors, alpha)
 
 

@@ -24,7 +24,7 @@ Error channel (honest, never small when the estimate is unreliable):
   probability < 1e-3, and a smaller one contributes at most 7 W / N.
 * mc_cosine also gets error 1 when the narrowest lobe of the integrand (width ~2 alpha in
   reflection, alpha |eta - 1| / eta in transmission) is expected to hold fewer than 64 samples,
-  and transmission gets error 1 when the layer |z_o| < mu (grazing mu) holds fewer than 64.
+  and error 1 when the layer |z_o| < mu next to the horizon (grazing mu) holds fewer than 64.
 * QMC: t-quantile (7 dof, 99.95%) times the standard error of the 8 replicate means, + 7/N.
 """
 
@@ -294,10 +294,9 @@ def _run(name, kernel, mode, mu, alpha, eta=None, *, dist=0, shadowing=1, ftype=
         w = lobe_width(mode, mu, alpha, eta)
         blind = (effort * w * w < COSINE_MIN_LOBE_SAMPLES) & (alpha > 0)
         errors[blind] = 1.0
-        if mode == "dielectric":
-            # grazing: the transmitted integrand varies on the scale |z_o| ~ mu, a layer that
-            # holds ~N mu^2 cosine samples
-            errors[(effort * mu * mu < COSINE_MIN_LOBE_SAMPLES) & (alpha > 0), 1] = 1.0
+        # grazing: the integrand (G / mu) varies on the scale |z_o| ~ mu, a layer that holds
+        # ~N mu^2 cosine samples
+        errors[(effort * mu * mu < COSINE_MIN_LOBE_SAMPLES) & (alpha > 0)] = 1.0
     return finalize(mode, values, errors, alpha)
 
 
