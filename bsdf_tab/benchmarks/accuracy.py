@@ -416,7 +416,7 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
     ax.set_ylabel("mean absolute error vs reference")
     ax.set_title("error vs samples, peer tables as stars")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="best")
     sub = "quick" if result.get("quick") else "full"
     fig.suptitle(f"bsdf-tab accuracy vs speed ({sub} sweep: {len(result['cases'])} cases x "
                  f"{len(result['axes']['mu']) * len(result['axes']['alpha'])} texels)", fontsize=12)
