@@ -375,7 +375,7 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
 
     summary = result["summary"]
     floor = 1e-12
-    fig, axes = plt.subplots(1, 3, figsize=(19, 6.2))
+    fig, axes = plt.subplots(1, 3, figsize=(22, 6.2))
     for ax, key, title in ((axes[0], "max_abs_err", "worst texel"), (axes[1], "mean_abs_err", "mean over texels")):
         for method in dict.fromkeys(s["method"] for s in summary):
             pts = [s for s in summary if s["method"] == method]
@@ -416,12 +416,12 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
     ax.set_ylabel("mean absolute error vs reference")
     ax.set_title("error vs samples, peer tables as stars")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     sub = "quick" if result.get("quick") else "full"
     fig.suptitle(f"bsdf-tab accuracy vs speed ({sub} sweep: {len(result['cases'])} cases x "
                  f"{len(result['axes']['mu']) * len(result['axes']['alpha'])} texels)", fontsize=12)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
 
