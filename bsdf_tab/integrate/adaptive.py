@@ -61,6 +61,7 @@ _STACK = 64
 _stackd = wp.types.vector(length=_STACK, dtype=wp.float64)
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)
 _vec16d = wp.types.vector(length=16, dtype=wp.float64)
+_vec24d = wp.types.vector(length=24, dtype=wp.float64)
 _vec32d = wp.types.vector(length=32, dtype=wp.float64)
 
 # Gauss-Kronrod 15-point abscissae on [-1, 1] (positive half, centre last) and weights;
@@ -295,14 +296,69 @@ def _insert_sorted(v: _vec6d, n: wp.int32, x: wp.float64):
 
 
 @wp.func
-def _insert_sorted16(v: _vec16d, n: wp.int32, x: wp.float64):
-    # insertion into the first n sorted entries (n < 16)
+def _insert_sorted24(v: _vec24d, n: wp.int32, x: wp.float64):
+    # insertion into the first n sorted entries (n < 24)
     i = n
     while i > 0 and v[i - 1] > x:
         v[i] = v[i - 1]
         i -= 1
     v[i] = x
     return v
+
+
+@wp.func
+def _t_floor(p: TexelParams, cm: wp.float64):
+    """Lowest i.m with transmission (eta < 1): the horizon root c_t if valid, else c_TIR."""
+    e2 = wp.float64(1.0) - p.eta * p.eta
+    if p.mu <= wp.float64(0.0):
+        # grazing from inside: nothing is transmitted
+        return wp.float64(2.0)
+    c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
+    if c_t * cm >= p.mu:
+        return c_t
+    return wp.sqrt(e2)
+
+
+@wp.func
+def _t_gap(p: TexelParams, theta_i: wp.float64, theta: wp.float64, which: wp.int32):
+    # c_max (which = 0) or c_min (which = 1) minus the transmission floor at theta_m = theta
+    cm = wp.cos(theta)
+    c = wp.cos(theta_i - theta)
+    if which == 1:
+        c = wp.cos(theta_i + theta)
+    return c - _t_floor(p, cm)
+
+
+@wp.func
+def _transmission_breaks(p: TexelParams, theta_i: wp.float64, cands: _vec24d, ncand: wp.int32):
+    """Append theta_m where c_max or c_min crosses the transmission floor (at most 2 each)."""
+    n = ncand
+    steps = int(64)
+    for which in range(2):
+        found = int(0)
+        ta = wp.float64(1.0e-9)
+        ga = _t_gap(p, theta_i, ta, which)
+        for k in range(steps):
+            tb = _HALF_PI * wp.float64(k + 1) / wp.float64(steps) - wp.float64(1.0e-9)
+            gb = _t_gap(p, theta_i, tb, which)
+            if (ga > wp.float64(0.0)) != (gb > wp.float64(0.0)) and found < 2 and n < 24:
+                lo = ta
+                hi = tb
+                glo = ga
+                for _it in range(60):
+                    mid = wp.float64(0.5) * (lo + hi)
+                    gm = _t_gap(p, theta_i, mid, which)
+                    if (gm > wp.float64(0.0)) == (glo > wp.float64(0.0)):
+                        lo = mid
+                        glo = gm
+                    else:
+                        hi = mid
+                cands[n] = wp.float64(0.5) * (lo + hi)
+                n += 1
+                found += 1
+            ta = tb
+            ga = gb
+    return cands, n
 
 
 @wp.func
@@ -504,9 +560,9 @@ def texel_kernel(
     # outer breakpoints in theta_m where the phi pieces change (module docstring)
     theta_i = wp.acos(mu)
     hp = _HALF_PI
-    th = _vec16d()
+    th = _vec24d()
     nt = int(0)
-    cands = _vec16d()
+    cands = _vec24d()
     cands[0] = wp.float64(0.5) * (hp - theta_i)
     cands[1] = hp - theta_i
     cands[2] = wp.float64(0.5) * (hp + theta_i)
@@ -516,6 +572,10 @@ def texel_kernel(
         cands[3] = wp.abs(theta_i - theta_c)
         cands[4] = theta_i + theta_c
         ncand = 5
+    if mode == MODE_DIELECTRIC and p.eta < one:
+        # where the transmitted set (i.m above its floor, see _inner) appears or fills the whole
+        # phi circle: no closed form, so locate sign changes on a grid and bisect
+        cands, ncand = _transmission_breaks(p, theta_i, cands, ncand)
     # fixed angles too: the v map packs theta_m >> alpha into the last ~alpha of [0, 1], where a
     # single rule could otherwise step over the horizon structure without noticing it
     for q in range(7):
@@ -524,7 +584,7 @@ def texel_kernel(
     for q in range(ncand):
         x = cands[q]
         if x > zero and x < hp:
-            th = _insert_sorted16(th, nt, x)
+            th = _insert_sorted24(th, nt, x)
             nt += 1
     v_end = one
     if mode != MODE_DIELECTRIC:
