@@ -359,7 +359,7 @@ def test_tabulate_dielectric_avg():
 # ----------------------------------------------------------------------------------------
 
 
-def _outgoing_space(wi, alpha, dist, shad, kind, eta=None, n=320):
+def _outgoing_space(wi, alpha, dist, shad, kind, eta=None, n=200):
     """Brute force over the outgoing direction (cos theta_o, phi_o) with f_r / f_t directly
     (Walter eqs. 20/21, no Jacobian, no domain mapping): fine only for rough alpha."""
     x, w = np.polynomial.legendre.leggauss(n)
