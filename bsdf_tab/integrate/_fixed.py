@@ -46,6 +46,7 @@ class Tex:
     alpha: wp.float64
     eta: wp.float64
     li: wp.float64  # mu Lambda(mu)
+    err_model: wp.int32  # adaptive only: 0 |K15 - G7|, 1 QUADPACK rescaling
 
 
 @wp.func
@@ -86,6 +87,8 @@ def mirror(p: Tex):
 @wp.func
 def m_terms(p: Tex, m: wp.vec3d):
     """(F G / mu, (1 - F) G_t / mu) at micro-normal m, with every chi+ condition applied.
+
+    Only m.x and m.z are read (isotropic, w_i in the xz-plane).
 
     Channel 0 is reflection (E, R, or A), channel 1 transmission T (dielectric) or B (dfg).
     The table integrals are int m_terms (i.m) D(m) dw_m (Walter 2007 eqs. 14, 17).
