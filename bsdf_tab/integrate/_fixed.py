@@ -46,7 +46,6 @@ class Tex:
     alpha: wp.float64
     eta: wp.float64
     li: wp.float64  # mu Lambda(mu)
-    err_model: wp.int32  # adaptive only: 0 |K15 - G7|, 1 QUADPACK rescaling
 
 
 @wp.func

@@ -44,9 +44,17 @@ import math
 import numpy as np
 import warp as wp
 
-from ..model.distribution import BECKMANN
+from ..model.distribution import BECKMANN, lambda_cos
+from ..model.fresnel import fresnel, fresnel_dielectric
 from ..model.frame import expm1_, log1p_
-from ._fixed import MODE_DIELECTRIC, MODE_DFG, MODES, Tex, m_terms, make_tex, mirror
+from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
+
+# integrand families
+MODE_REFLECT = wp.constant(0)  # channel 0: int F G D (i.m)/mu     (albedo)
+MODE_DIELECTRIC = wp.constant(1)  # channels R, T (exact dielectric Fresnel, eta per texel)
+MODE_DFG = wp.constant(2)  # channels A, B: split-sum weights (1 - (1-c)^5), (1-c)^5, F = 1
+
+MODES = {"reflect": 0, "dielectric": 1, "dfg": 2}
 
 _vec8d = wp.types.vector(length=8, dtype=wp.float64)
 _STACK = 64
@@ -101,20 +109,70 @@ _ERR_FLOOR = wp.constant(wp.float64(1.0e-10))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
 
 
-TexelParams = Tex  # mode, material, incidence, mu Lambda(mu), err_model (see _fixed.py)
+@wp.struct
+class TexelParams:
+    """What the integrand needs besides the integration variables.
+
+    Deliberately a copy of ``_fixed.Tex`` (plus err_model) with its own integrand below rather
+    than a call into ``_fixed.m_terms``: the extra call level passing the struct by value cost
+    ~30% of the integrand time (68 against 51 ns per evaluation, measured)."""
+
+    mode: wp.int32
+    dist: wp.int32
+    shadowing: wp.int32
+    ftype: wp.int32
+    fp0: wp.float64
+    fp1: wp.float64
+    mu: wp.float64
+    sin_i: wp.float64
+    alpha: wp.float64
+    eta: wp.float64
+    li: wp.float64  # mu * Lambda(mu)
+    err_model: wp.int32  # 0: |K15 - G7|, 1: QUADPACK rescaling
 
 
 @wp.func
 def _integrand(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
     """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi)."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
     cp = wp.cos(phi)
-    # (i.m) / cos(theta_m), written without the division; m_terms reads only m.x and m.z
+    c = p.sin_i * sm * cp + p.mu * cm
+    out = wp.vec2d(zero, zero)
+    if c <= zero:
+        # chi+(i.m): i sees the back of the micro-facet
+        return out
+    # (i.m) / cos(theta_m), written without the division
     jac = p.sin_i * tm * cp + p.mu
-    f = m_terms(p, wp.vec3d(sm * cp, wp.float64(0.0), cm))
-    if f[0] == wp.float64(0.0) and f[1] == wp.float64(0.0):
-        # outside the admissible set; also where v rounds to 1 and tan(theta_m) is infinite
-        return f
-    return f * jac
+    zo = wp.float64(2.0) * c * cm - p.mu
+    if zo > zero:
+        lo = lambda_cos(zo, p.alpha, p.dist)
+        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, zo, lo, p.shadowing) * jac
+        if p.mode == MODE_DFG:
+            w = one - c
+            w5 = w * w * w * w * w
+            out = wp.vec2d(g * (one - w5), g * w5)
+        elif p.mode == MODE_DIELECTRIC:
+            out = wp.vec2d(fresnel_dielectric(c, p.eta) * g, zero)
+        else:
+            out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
+    if p.mode == MODE_DIELECTRIC:
+        k2 = one - (one - c * c) / (p.eta * p.eta)
+        if k2 > zero:
+            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta, with c/eta - sqrt(k2)
+            # rationalized so that its sign is exact near eta = 1 (it is 0 at eta = 1)
+            d = (one / (p.eta * p.eta) - one) / (c / p.eta + wp.sqrt(k2))
+            zt = d * cm - p.mu / p.eta
+            g = zero
+            if zt < zero:
+                azt = -zt
+                lt = lambda_cos(azt, p.alpha, p.dist)
+                g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azt, lt, p.shadowing) * jac
+            elif d == zero and p.mu == zero:
+                # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
+                g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
+            out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
+    return out
 
 
 @wp.func
@@ -443,6 +501,20 @@ def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, ma
     return rk * hl, _gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl, rules
 
 
+@wp.func
+def _mirror(p: TexelParams):
+    """alpha = 0: D is a Dirac delta at n, o is the mirror (or straight refraction), G = 1."""
+    one = wp.float64(1.0)
+    if p.mode == MODE_DFG:
+        w = one - p.mu
+        w5 = w * w * w * w * w
+        return wp.vec2d(one - w5, w5)
+    if p.mode == MODE_DIELECTRIC:
+        f = fresnel_dielectric(p.mu, p.eta)
+        return wp.vec2d(f, one - f)
+    return wp.vec2d(fresnel(p.mu, p.ftype, p.fp0, p.fp1), wp.float64(0.0))
+
+
 @wp.kernel
 def texel_kernel(
     idx: wp.array(dtype=wp.int32),
@@ -468,10 +540,21 @@ def texel_kernel(
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     mu = wp.clamp(mu_a[i], zero, one)
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
+    p = TexelParams()
+    p.mode = mode
+    p.dist = dist
+    p.shadowing = shadowing
+    p.ftype = ftype
+    p.fp0 = fp0
+    p.fp1 = fp1
+    p.mu = mu
+    p.sin_i = wp.sqrt(wp.max(zero, one - mu * mu))
+    p.alpha = alpha_a[i]
+    p.eta = eta_a[i]
+    p.li = lambda_cos(mu, p.alpha, dist)
     p.err_model = err_model
     if p.alpha <= zero:
-        r = mirror(p)
+        r = _mirror(p)
         value[i, 0] = r[0]
         value[i, 1] = r[1]
         error[i, 0] = zero
