@@ -214,12 +214,19 @@ def _configure_bake(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--format", default=None, choices=("exr", "half-exr", "npy", "h"), help="file format of --preset (default: exr)"
     )
+    parser.add_argument("--tol", type=float, default=None, help="a scene file: max lookup error (docs/scenes.md)")
 
 
 def cmd_bake(args: argparse.Namespace) -> int:
     """Bake one spec file, or the default set when no spec is given, or a preset."""
     if args.workers is not None and args.workers < 1:
         raise CliError("--workers must be >= 1")
+    if args.spec and getattr(args, "preset", None) is None and _is_scene_file(args.spec):
+        from .scene import cmd_bake_scene
+
+        return cmd_bake_scene(args)
+    if getattr(args, "tol", None) is not None:
+        raise CliError("--tol applies to a scene file (a JSON object with a 'materials' list)")
     if getattr(args, "preset", None) is not None:
         return _bake_preset(args)
     if getattr(args, "format", None) is not None:
@@ -315,6 +322,29 @@ def cmd_info(args: argparse.Namespace) -> int:
 register_command("bake", "bake a spec file (or the default set) to EXR", _configure_bake, cmd_bake)
 register_command("info", "describe a table file", _configure_info, cmd_info)
 register_command("presets", "list the engine presets (bake one with bake --preset NAME)", lambda parser: None, cmd_presets)
+
+
+def _is_scene_file(path: str) -> bool:
+    """A spec path that holds a scene (top-level 'materials'), not one table's spec."""
+    try:
+        return "materials" in json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, TypeError):
+        return False  # the spec loader reports it
+
+
+def _configure_plan(parser: argparse.ArgumentParser) -> None:
+    from .scene import configure_plan
+
+    configure_plan(parser)
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from .scene import cmd_plan
+
+    return cmd_plan(args)
+
+
+register_command("plan", "plan the minimal tables of a scene file for a lookup error (--tol T)", _configure_plan, _cmd_plan)
 
 
 def _configure_bench(parser: argparse.ArgumentParser) -> None:

@@ -753,14 +753,17 @@ def configure_plan(parser: argparse.ArgumentParser) -> None:
 def _plan_from_args(args: argparse.Namespace) -> ScenePlan:
     from .cli import _quiet_warp
 
-    scene = load_scene_file(args.scene)
+    path = getattr(args, "scene", None) or args.spec
+    if args.workers is not None and args.workers < 1:
+        raise SpecError("workers", "--workers must be >= 1")
+    scene = load_scene_file(path)
     if not is_scene(scene):
-        raise SpecError("materials", f"{args.scene} is not a scene (no top-level 'materials' list)")
+        raise SpecError("materials", f"{path} is not a scene (no top-level 'materials' list)")
     _quiet_warp(args)
     try:
         return plan_scene(scene, args.tol, device=args.device, workers=args.workers)
     except SpecError as exc:
-        raise SpecError(exc.param, f"{args.scene}: {exc.message}") from None
+        raise SpecError(None, f"{path}: {exc}") from None
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
