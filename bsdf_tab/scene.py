@@ -56,7 +56,7 @@ import numpy as np
 
 from .errors import SpecError
 
-__all__ = ["parse_scene", "plan_scene", "bake_scene", "lookup", "ScenePlan", "TablePlan", "AxisPlan", "is_scene"]
+__all__ = ["parse_scene", "plan_scene", "bake_scene", "lookup", "axes_from_manifest", "ScenePlan", "TablePlan", "AxisPlan", "is_scene"]
 
 MATERIAL_TYPES = ("conductor", "dielectric", "schlick")
 INTERPOLATIONS = ("linear", "nearest")
@@ -702,6 +702,17 @@ def _manifest_entry(m: dict, tp: TablePlan, rname: str) -> dict:
     else:
         entry["formula"] = "R, T (energy form; eta = eta_o / eta_i)"
     return entry
+
+
+def axes_from_manifest(entry: dict) -> list[AxisPlan]:
+    """The :class:`AxisPlan` list of one ``tables[i]`` entry of a manifest (for :func:`lookup`)."""
+    out = []
+    for a in entry["axes"]:
+        if a["lookup"] == "index":
+            out.append(AxisPlan(a["name"], "discrete", values=list(a["values"])))
+        else:
+            out.append(AxisPlan(a["name"], "interp", range=tuple(a["range"]), spacing=a["spacing"], size=a["size"]))
+    return out
 
 
 def bake_scene(plan: ScenePlan, out_dir: str | Path) -> Path:

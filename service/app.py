@@ -18,7 +18,7 @@ from bsdf_tab import __version__
 
 from .compute import TableStore, quiet_warp
 from .errors import install_handlers
-from .routes import pages, tables
+from .routes import pages, scenes, tables
 from .settings import Settings
 
 __all__ = ["create_app", "app"]
@@ -67,6 +67,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install_handlers(app)
     app.include_router(tables.router)
     app.include_router(pages.router)
+    app.include_router(scenes.router)
 
     @app.get("/healthz", tags=["health"], summary="Liveness and counters (never waits on a computation)")
     async def healthz(request: Request) -> JSONResponse:

@@ -1,0 +1,87 @@
+"""``POST /scenes``: plan and bake the minimal tables of a scene (bsdf_tab.scene).
+
+Body: a scene JSON object (``materials``, optional ``lookup`` and ``tolerance``); query ``tol``
+(the max lookup error; default the scene's ``tolerance``). The answer is JSON::
+
+    {"plan": {...the plan and manifest, as bsdf-tab bake SCENE writes to manifest.json...},
+     "tables": {"<file>.exr": {"format": "exr", "encoding": "base64", "bytes": n, "data": "..."}}}
+
+Errors: a bad scene or tolerance -> 400 naming the parameter (``materials[0].alpha``), a
+planned table above the service's texel limit -> 413. The planner's own caps (nodes per axis,
+check texels) bound the computation. Planning runs in the compute pool, off the event loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+
+from fastapi import APIRouter, Request
+from fastapi.responses import Response
+
+from bsdf_tab.errors import SpecError
+from bsdf_tab.scene import is_scene, parse_scene, plan_scene
+from bsdf_tab.table import json_default
+
+from ..errors import ServiceError
+from ..params import only_params
+from .tables import read_json_body, store_of
+
+router = APIRouter(tags=["scenes"])
+
+_ERR = {"content": {"application/json": {}}}
+
+
+def _tol(extra: dict) -> float | None:
+    if "tol" not in extra:
+        return None
+    try:
+        return float(extra["tol"])
+    except ValueError:
+        raise SpecError("tol", f"must be a number, got {extra['tol'][:40]!r}") from None
+
+
+def _plan(scene: dict, tol, settings) -> dict:
+    from bsdf_tab.api import tabulate
+
+    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, tabulate=tabulate)
+    for t in plan.tables:
+        n = 1
+        for s in t.shape:
+            n *= s
+        if n > settings.max_texels:
+            raise ServiceError(413, "too_many_texels", f"table {t.file} needs {n} texels; at most {settings.max_texels}",
+                               param="tol", allowed={"max_texels": settings.max_texels})
+    tables = {}
+    for t in plan.tables:
+        data = t.table.to_exr_bytes()
+        tables[t.file] = {"format": "exr", "encoding": "base64", "bytes": len(data),
+                          "data": base64.b64encode(data).decode("ascii")}
+    return {"plan": plan.to_dict(), "tables": tables}
+
+
+@router.post(
+    "/scenes",
+    summary="Plan and bake the minimal tables of a scene (JSON: plan, manifest, base64 EXR tables)",
+    responses={200: {"description": "the plan and the tables", "content": {"application/json": {}}},
+               400: {"description": "invalid scene or tolerance (the error names it)", **_ERR},
+               413: {"description": "body too large / a planned table above the texel limit", **_ERR}},
+    openapi_extra={
+        "parameters": [{"name": "tol", "in": "query", "required": False, "schema": {"type": "number"},
+                        "description": "max lookup error (default: the scene's tolerance)"}],
+        "requestBody": {"required": True, "content": {"application/json": {"schema": {"type": "object"}}}},
+    },
+)
+async def post_scene(request: Request) -> Response:
+    extra = only_params(request.query_params.multi_items(), ("tol",))
+    tol = _tol(extra)
+    scene = await read_json_body(request)
+    if not is_scene(scene):
+        raise SpecError("materials", "the body must be a scene: a JSON object with a 'materials' list")
+    parse_scene(scene)  # 400 before taking a compute slot
+    store = store_of(request)
+    loop = asyncio.get_running_loop()
+    body = await loop.run_in_executor(store.compute_pool, _plan, scene, tol, request.app.state.settings)
+    text = json.dumps(body, default=json_default, allow_nan=False)
+    return Response(text, media_type="application/json", headers={"Cache-Control": "no-store"})

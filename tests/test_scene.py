@@ -1,0 +1,235 @@
+"""Scenes: parse, plan (minimal tables, verified error), bake with manifest, CLI, POST /scenes.
+
+The planned tables are checked against direct ``tabulate`` at random points of each
+material's ranges (explicit axes), as the renderer looks them up (``scene.lookup``).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+
+import numpy as np
+import pytest
+
+from bsdf_tab import cli
+from bsdf_tab.api import tabulate
+from bsdf_tab.errors import SpecError
+from bsdf_tab.exr import read_exr
+from bsdf_tab.scene import axes_from_manifest, bake_scene, lookup, parse_scene, plan_scene
+
+METALS = {
+    "materials": [
+        {"name": "gold", "type": "conductor", "eta": 0.18, "k": 3.42, "roughness": {"range": [0.3, 0.6]}},
+        {"name": "copper", "type": "conductor", "ior": [0.27, 3.61], "roughness": 0.4},
+    ]
+}
+MIXED = {
+    "lookup": {"interpolation": "linear", "spacings": ["linear"]},
+    "materials": [
+        {"name": "plastic", "type": "schlick", "f0": 0.04, "alpha": {"range": [0.1, 0.4]}},
+        {"name": "glass", "type": "dielectric", "eta": 1.5, "alpha": [0.2, 0.3], "distribution": "beckmann"},
+    ],
+}
+NEAREST = {
+    "lookup": {"interpolation": "nearest"},
+    "materials": [
+        {"name": "rough", "type": "schlick", "f0": 0.5, "roughness": {"range": [0.5, 0.9]}, "shadowing": "separable"}
+    ],
+}
+TINY = {"materials": [{"name": "steel", "type": "conductor", "eta": 2.5, "k": 3.0, "alpha": 0.3}]}
+SCENES = [("metals", METALS, 2e-3), ("mixed", MIXED, 2e-3), ("nearest", NEAREST, 2e-2)]
+
+_PLANS: dict = {}
+
+
+def planned(name, scene, tol):
+    if name not in _PLANS:
+        _PLANS[name] = plan_scene(scene, tol)
+    return _PLANS[name]
+
+
+def _material_points(mat: dict, rng, n: int = 4) -> dict:
+    """Random coordinates of a material: {axis: sorted values} in the table's units (before
+    alpha = roughness^2 conversion, handled by the caller)."""
+    def pick(v):
+        if "range" in v:
+            lo, hi = v["range"]
+            return sorted(set(np.round(rng.uniform(lo, hi, n), 12).tolist()))
+        return list(v["values"])
+
+    out = {}
+    for key in ("alpha", "roughness"):
+        if key in mat:
+            out[key] = pick(mat[key] if isinstance(mat[key], dict) else {"values": np.atleast_1d(mat[key]).tolist()})
+    if mat["type"] == "dielectric":
+        out["eta"] = pick({"values": np.atleast_1d(mat["eta"]).tolist()} if not isinstance(mat["eta"], dict) else mat["eta"])
+    return out
+
+
+@pytest.mark.parametrize("name,scene,tol", SCENES, ids=[s[0] for s in SCENES])
+def test_baked_tables_meet_tol_at_random_points(name, scene, tol, tmp_path):
+    plan = planned(name, scene, tol)
+    bake_scene(plan, tmp_path)
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    interp = manifest["interpolation"]
+    entries = {t["file"]: t for t in manifest["tables"]}
+    rng = np.random.default_rng(7)
+    for mat in scene["materials"]:
+        info = manifest["materials"][mat["name"]]
+        entry = entries[info["table"]]
+        table = read_exr(tmp_path / info["table"])
+        axes = axes_from_manifest(entry)
+        pts = _material_points(mat, rng)
+        mu = sorted(set(np.round(rng.uniform(0.0, 1.0, 9), 12).tolist()) | {0.0, 1.0})
+        direct_axes = {"mu": mu}
+        for ax in axes[1:]:
+            if ax.name in pts:
+                direct_axes[ax.name] = pts[ax.name]
+            else:  # table axis alpha, material given as roughness
+                direct_axes[ax.name] = sorted({r * r for r in pts["roughness"]})
+        spec = dict(entry["spec"], axes=direct_axes, tolerance=1e-7)
+        direct = tabulate(spec)
+        grids = np.meshgrid(*[np.asarray(v) for v in direct_axes.values()], indexing="ij")
+        for ch in entry["channels"]:
+            got = lookup(np.asarray(table.channels[ch], dtype=np.float64), axes, grids, interp)
+            err = np.abs(got - direct.channels[ch]) + direct.channels[ch + "_err"]
+            assert err.max() <= tol, (name, mat["name"], ch, float(err.max()))
+        if entry["table"] == "dfg":  # E = f0 A + B with the material's f0
+            f0 = float(np.max(mat["f0"]))
+            e_tab = f0 * lookup(table.channels["A"], axes, grids, interp) + lookup(table.channels["B"], axes, grids, interp)
+            e_dir = f0 * direct.channels["A"] + direct.channels["B"]
+            assert np.abs(e_tab - e_dir).max() <= tol
+    # the plan's reported error is the verified one and below tol
+    assert manifest["max_error"] <= tol
+    assert all(t["max_error"] <= tol for t in manifest["tables"])
+
+
+@pytest.mark.parametrize("name,scene,tol", SCENES[:2], ids=[s[0] for s in SCENES[:2]])
+def test_plan_smaller_than_fixed_alternative(name, scene, tol):
+    plan = planned(name, scene, tol)
+    assert plan.bytes < plan.fixed_bytes
+    text = plan.text()
+    assert "fixed" in text and str(plan.bytes) in text
+
+
+def test_planner_merges_drops_and_restricts():
+    plan = planned("metals", METALS, 2e-3)
+    # one table per conductor IOR, the single roughness of copper a 1-value axis
+    assert [t.kind for t in plan.tables] == ["albedo", "albedo"]
+    gold, copper = plan.tables
+    assert gold.axes[1].mode == "interp" and tuple(gold.axes[1].range) == (0.3, 0.6)
+    assert copper.axes[1].mode == "discrete" and copper.axes[1].values == [0.4]
+    mixed = planned("mixed", MIXED, 2e-3)
+    glass = [t for t in mixed.tables if t.kind == "dielectric"][0]
+    assert glass.shape[1:] == (2, 1)  # alpha {0.2, 0.3}, eta {1.5}: no interpolation there
+    assert all(a.spacing == "linear" for t in mixed.tables for a in t.axes if a.mode == "interp")
+
+
+def test_planner_is_deterministic():
+    first = planned("metals", METALS, 2e-3).to_dict()
+    again = plan_scene(METALS, 2e-3).to_dict()
+    assert json.dumps(first, sort_keys=True) == json.dumps(again, sort_keys=True)
+
+
+@pytest.mark.parametrize(
+    "scene,param",
+    [
+        ({"materials": []}, "materials"),
+        ({"materials": [{"type": "wood", "alpha": 0.1}]}, "materials[0].type"),
+        ({"materials": [{"type": "conductor", "eta": 1.0, "alpha": 0.1}]}, "materials[0].k"),
+        ({"materials": [{"type": "schlick", "f0": 2.0, "alpha": 0.1}]}, "materials[0].f0"),
+        ({"materials": [{"type": "schlick", "f0": 0.04, "alpha": -0.1}]}, "materials[0].alpha"),
+        ({"materials": [{"type": "schlick", "f0": 0.04, "alpha": {"range": [0.5, 0.2]}}]}, "materials[0].alpha.range"),
+        ({"materials": [{"type": "dielectric", "eta": 0, "alpha": 0.1}]}, "materials[0].eta"),
+        ({"materials": [{"type": "schlick", "f0": 0.04}]}, "materials[0].alpha"),
+        ({"materials": [{"type": "schlick", "f0": 0.04, "alpha": 0.1, "colour": 1}]}, "materials[0].colour"),
+        ({"materials": [{"type": "schlick", "f0": 0.04, "alpha": 0.1}], "lookup": {"interpolation": "cubic"}},
+         "lookup.interpolation"),
+        ({"materials": [{"type": "schlick", "f0": 0.04, "alpha": 0.1, "name": "a"},
+                        {"type": "schlick", "f0": 0.04, "alpha": 0.2, "name": "a"}]}, "materials[1].name"),
+    ],
+)
+def test_bad_scenes_name_the_parameter(scene, param):
+    with pytest.raises(SpecError) as info:
+        parse_scene(scene)
+    assert info.value.param == param
+
+
+def test_bad_tolerance():
+    with pytest.raises(SpecError) as info:
+        plan_scene(TINY, 0.0)
+    assert info.value.param == "tolerance"
+    with pytest.raises(SpecError) as info:
+        plan_scene(TINY)  # no --tol and no scene tolerance
+    assert info.value.param == "tolerance"
+
+
+def _run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_plan_and_bake(tmp_path, capsys):
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(TINY))
+    code, out, err = _run(capsys, "plan", str(path), "--tol", "2e-3")
+    assert code == 0, err
+    assert "fixed" in out and "steel" in out
+    code, out, err = _run(capsys, "plan", str(path), "--tol", "2e-3", "--json")
+    assert code == 0 and json.loads(out)["tables"][0]["table"] == "albedo"
+    code, out, err = _run(capsys, "bake", str(path), "--tol", "2e-3", "-o", str(tmp_path / "out"))
+    assert code == 0, err
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["materials"]["steel"]["table"] == "ggx_correlated_albedo_1.exr"
+    assert read_exr(tmp_path / "out" / "ggx_correlated_albedo_1.exr").channels["E"].shape[1] == 1
+
+
+@pytest.mark.parametrize(
+    "argv_tail,fragment",
+    [
+        (["--tol", "1e-3"], "materials[0].k"),
+        (["--tol", "-1"], "tolerance"),
+    ],
+)
+def test_cli_errors_are_one_line(tmp_path, capsys, argv_tail, fragment):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"materials": [{"type": "conductor", "eta": 1.0, "alpha": 0.1}]}))
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(TINY))
+    path = bad if fragment.startswith("materials") else good
+    for cmd in (["plan", str(path)], ["bake", str(path), "-o", str(tmp_path / "o")]):
+        code, out, err = _run(capsys, *cmd, *argv_tail)
+        assert code == 2, err
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and fragment in lines[0], err
+    code, out, err = _run(capsys, "plan", str(tmp_path / "missing.json"), "--tol", "1e-3")
+    assert code == 2 and len(err.strip().splitlines()) == 1
+
+
+def test_service_post_scenes(tmp_path):
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    from service.app import create_app
+    from service.settings import Settings
+
+    app = create_app(Settings(cache_dir=tmp_path / "cache", warmup=False, workers=2))
+    with TestClient(app) as client:
+        r = client.post("/scenes", params={"tol": "2e-3"}, json=TINY)
+        assert r.status_code == 200, r.text
+        body = r.json()
+        assert body["plan"]["bytes"] < body["plan"]["fixed_bytes"]
+        (name, item), = body["tables"].items()
+        data = base64.b64decode(item["data"])
+        assert len(data) == item["bytes"]
+        (tmp_path / name).write_bytes(data)
+        assert "E" in read_exr(tmp_path / name).channels
+        bad = client.post("/scenes", params={"tol": "2e-3"}, json={"materials": [{"type": "x", "alpha": 0.1}]})
+        assert bad.status_code == 400 and bad.json()["error"]["param"] == "materials[0].type"
+        assert client.post("/scenes", params={"tol": "abc"}, json=TINY).status_code == 400
+        assert client.post("/scenes", params={"bogus": "1"}, json=TINY).status_code == 400
+        assert client.post("/scenes", json={"table": "albedo"}).status_code == 400
+        notol = client.post("/scenes", json=TINY)
+        assert notol.status_code == 400 and notol.json()["error"]["param"] == "tolerance"
