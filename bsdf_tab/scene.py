@@ -407,20 +407,24 @@ def _table_spec(kind, dist, shadowing, fresnel, axes: dict, tol: float) -> dict:
     return spec
 
 
-def lookup(values: np.ndarray, axes: list[AxisPlan], points: list[np.ndarray], interpolation: str) -> np.ndarray:
+def lookup(values: np.ndarray, axes: list[AxisPlan], points: list[np.ndarray], interpolation: str,
+           round_down: tuple[bool, ...] | None = None) -> np.ndarray:
     """Look a table up at points as a renderer does.
 
     ``values`` is shaped by the axes; ``points`` one array of coordinates per axis (broadcast
     together). Interpolated axes: multilinear (``linear``) or nearest texel in the texel
-    coordinate t; discrete axes: the texel of the value.
+    coordinate t; discrete axes: the texel of the value. ``round_down`` (per axis, nearest
+    lookup): a tie t = i + 1/2 goes to texel i instead of i + 1 (the planner checks both sides
+    of every cell boundary).
     """
     pts = np.broadcast_arrays(*[np.asarray(p, dtype=np.float64) for p in points])
     idx0, wts = [], []
-    for ax, p in zip(axes, pts):
+    for k, (ax, p) in enumerate(zip(axes, pts)):
         t = ax.coord(p)
         n = len(ax.nodes())
         if ax.mode == "discrete" or n == 1 or interpolation == "nearest":
-            i = np.clip(np.floor(t + 0.5), 0, n - 1).astype(np.int64)
+            down = round_down is not None and round_down[k] and ax.mode == "interp"
+            i = np.clip(np.ceil(t - 0.5) if down else np.floor(t + 0.5), 0, n - 1).astype(np.int64)
             idx0.append(i)
             wts.append(None)
         else:
@@ -506,16 +510,21 @@ def _errors(plan: TablePlan, fine, interpolation: str, sizes: list[int]) -> tupl
     interp = [i for i, a in enumerate(plan.axes) if a.mode == "interp"]
     sl = tuple(slice(None, None, 2) if a.mode == "interp" else slice(None) for a in plan.axes)
     grids = np.meshgrid(*[np.asarray(v) for v in fine.axes.values()], indexing="ij")
+    d = len(plan.axes)
+    # nearest: every texel that can be nearest to a cell boundary point (ties either way)
+    modes = [None] if interpolation != "nearest" else [tuple(bool((c >> k) & 1) for k in range(d)) for c in range(1 << d)]
+    vals = {ch: np.asarray(fine.channels[ch], dtype=np.float64) for ch in plan.channels}
+    errs = {ch: np.asarray(fine.channels[ch + "_err"], dtype=np.float64) for ch in plan.channels}
     total = np.zeros(grids[0].shape)
-    diffs, errs = {}, {}
-    for ch in plan.channels:
-        vals = np.asarray(fine.channels[ch], dtype=np.float64)
-        diffs[ch] = lookup(vals[sl], plan.axes, grids, interpolation) - vals
-        errs[ch] = np.asarray(fine.channels[ch + "_err"], dtype=np.float64)
-        total = np.maximum(total, np.abs(diffs[ch]) + errs[ch])
-    if plan.kind == "dfg":
-        # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
-        total = np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
+    for m in modes:
+        diffs = {ch: lookup(v[sl], plan.axes, grids, interpolation, m) - v for ch, v in vals.items()}
+        if plan.kind == "dfg":
+            # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
+            t = np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
+            total = np.maximum(total, t)
+        else:
+            for ch in plan.channels:
+                total = np.maximum(total, np.abs(diffs[ch]) + errs[ch])
     per_axis = []
     for a in interp:
         mask = np.ones(total.shape, dtype=bool)
