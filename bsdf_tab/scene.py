@@ -150,7 +150,9 @@ def parse_scene(scene: dict | str) -> dict:
     spacings = lk.get("spacings", list(SPACINGS))
     if not isinstance(spacings, list) or not spacings:
         raise SpecError("lookup.spacings", f"must be a non-empty list of {', '.join(SPACINGS)}, got {spacings!r}")
-    spacings = list(dict.fromkeys(_choice(s, SPACINGS, "lookup.spacings") for s in spacings))
+    alias = {"sqrt": "square"}  # t uniform in sqrt(x)
+    spacings = list(dict.fromkeys(_choice(alias.get(s, s) if isinstance(s, str) else s, SPACINGS, "lookup.spacings")
+                                  for s in spacings))
     out: dict[str, Any] = {"lookup": {"interpolation": interp, "spacings": spacings}}
     if "tolerance" in scene:
         out["tolerance"] = _num(scene["tolerance"], "tolerance", *TOL_RANGE)

@@ -233,3 +233,24 @@ def test_service_post_scenes(tmp_path):
         assert client.post("/scenes", json={"table": "albedo"}).status_code == 400
         notol = client.post("/scenes", json=TINY)
         assert notol.status_code == 400 and notol.json()["error"]["param"] == "tolerance"
+
+
+def test_mixed_alpha_and_roughness_share_an_alpha_axis():
+    scene = {
+        "lookup": {"spacings": ["sqrt"]},
+        "materials": [
+            {"name": "a", "type": "schlick", "f0": 0.04, "alpha": 0.1},
+            {"name": "r", "type": "schlick", "f0": 0.04, "roughness": 0.5},
+        ],
+    }
+    plan = plan_scene(scene, 5e-3)
+    (table,) = plan.tables
+    assert table.axes[1].name == "alpha" and table.axes[1].values == [0.1, 0.25]
+    assert table.axes[0].spacing == "square"
+    man = plan.to_dict()["materials"]
+    assert man["a"]["coords"]["alpha"]["index"] == [0]
+    assert man["r"]["coords"]["alpha"] == {"values": [0.25], "index": [1]} and "roughness^2" in man["r"]["note"]
+    direct = tabulate(dict(table.spec(), axes={"mu": [0.0, 0.37, 1.0], "alpha": [0.1, 0.25]}, tolerance=1e-7))
+    grids = np.meshgrid(np.array([0.0, 0.37, 1.0]), np.array([0.1, 0.25]), indexing="ij")
+    for ch in ("A", "B"):
+        assert np.abs(lookup(table.table.channels[ch], table.axes, grids, "linear") - direct.channels[ch]).max() <= 5e-3
