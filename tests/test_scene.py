@@ -38,7 +38,9 @@ NEAREST = {
     ],
 }
 TINY = {"materials": [{"name": "steel", "type": "conductor", "eta": 2.5, "k": 3.0, "alpha": 0.3}]}
-SCENES = [("metals", METALS, 2e-3), ("mixed", MIXED, 2e-3), ("nearest", NEAREST, 2e-2)]
+GLASS3D = {"materials": [{"name": "g", "type": "dielectric", "eta": {"range": [1.3, 1.6]}, "alpha": {"range": [0.3, 0.5]}}]}
+SCENES = [("metals", METALS, 2e-3), ("mixed", MIXED, 2e-3), ("nearest", NEAREST, 2e-2), ("glass3d", GLASS3D, 5e-3)]
+SMALLER = [SCENES[0], SCENES[1], SCENES[3]]
 
 _PLANS: dict = {}
 
@@ -105,7 +107,7 @@ def test_baked_tables_meet_tol_at_random_points(name, scene, tol, tmp_path):
     assert all(t["max_error"] <= tol for t in manifest["tables"])
 
 
-@pytest.mark.parametrize("name,scene,tol", SCENES[:2], ids=[s[0] for s in SCENES[:2]])
+@pytest.mark.parametrize("name,scene,tol", SMALLER, ids=[s[0] for s in SMALLER])
 def test_plan_smaller_than_fixed_alternative(name, scene, tol):
     plan = planned(name, scene, tol)
     assert plan.bytes < plan.fixed_bytes
