@@ -237,6 +237,43 @@ def test_service_post_scenes(tmp_path):
         assert notol.status_code == 400 and notol.json()["error"]["param"] == "tolerance"
 
 
+def test_service_scene_answers_are_cached_with_etag(tmp_path, monkeypatch):
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    import service.routes.scenes as scenes_route
+    from service.app import create_app
+    from service.settings import Settings
+
+    calls = []
+    real = scenes_route.plan_scene
+
+    def counting(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(scenes_route, "plan_scene", counting)
+    app = create_app(Settings(cache_dir=tmp_path / "cache", warmup=False, workers=2))
+    with TestClient(app) as client:
+        first = client.post("/scenes", params={"tol": "2e-3"}, json=TINY)
+        assert first.status_code == 200 and len(calls) == 1
+        etag = first.headers["etag"]
+        # the same scene spelled differently (key order, explicit defaults) is the same entry
+        respelled = {"materials": [{"alpha": 0.3, "k": 3.0, "eta": 2.5, "type": "conductor", "name": "steel",
+                                    "shadowing": "correlated", "distribution": "ggx"}]}
+        again = client.post("/scenes", params={"tol": "2e-3"}, json=respelled)
+        assert again.status_code == 200 and again.content == first.content and len(calls) == 1
+        assert again.headers["etag"] == etag
+        not_modified = client.post("/scenes", params={"tol": "2e-3"}, json=TINY, headers={"If-None-Match": etag})
+        assert not_modified.status_code == 304 and not not_modified.content and len(calls) == 1
+        other_tol = client.post("/scenes", params={"tol": "3e-3"}, json=TINY)
+        assert other_tol.status_code == 200 and other_tol.headers["etag"] != etag and len(calls) == 2
+    # a new app on the same cache folder serves the stored answer without planning
+    with TestClient(create_app(Settings(cache_dir=tmp_path / "cache", warmup=False, workers=2))) as client:
+        assert client.post("/scenes", params={"tol": "2e-3"}, json=TINY).content == first.content
+    assert len(calls) == 2
+
+
 def test_mixed_alpha_and_roughness_share_an_alpha_axis():
     scene = {
         "lookup": {"spacings": ["sqrt"]},

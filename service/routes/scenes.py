@@ -9,24 +9,32 @@ Body: a scene JSON object (``materials``, optional ``lookup`` and ``tolerance``)
 Errors: a bad scene or tolerance -> 400 naming the parameter (``materials[0].alpha``), a
 planned table above the service's texel limit -> 413. The planner's own caps (nodes per axis,
 check texels) bound the computation. Planning runs in the compute pool, off the event loop.
+
+The planner is deterministic, so the answer is cached like a table: key = package version +
+sha256 of the normalized scene and ``tol``; simultaneous requests for one scene share one
+planning run (single flight); the answer carries a strong ``ETag`` and ``If-None-Match`` gives
+304 without planning anything.
 """
 
 from __future__ import annotations
 
 import asyncio
 import base64
+import hashlib
 import json
 
 from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
+from bsdf_tab import __version__
 from bsdf_tab.errors import SpecError
 from bsdf_tab.scene import is_scene, parse_scene, plan_scene
 from bsdf_tab.table import json_default
 
+from ..cache import table_key
 from ..errors import ServiceError
 from ..params import only_params
-from .tables import read_json_body, store_of
+from .tables import etag_matches, read_json_body, store_of
 
 router = APIRouter(tags=["scenes"])
 
@@ -40,6 +48,13 @@ def _tol(extra: dict) -> float | None:
         return float(extra["tol"])
     except ValueError:
         raise SpecError("tol", f"must be a number, got {extra['tol'][:40]!r}") from None
+
+
+def scene_key(parsed: dict, tol: float | None) -> str:
+    """Cache key of a scene request: version + sha256 of the normalized scene and ``tol``."""
+    canon = json.dumps({"scene": parsed, "tol": tol}, sort_keys=True, separators=(",", ":"),
+                       default=json_default, allow_nan=False)
+    return table_key(hashlib.sha256(canon.encode()).hexdigest(), __version__)
 
 
 def _plan(scene: dict, tol, settings) -> dict:
@@ -79,9 +94,22 @@ async def post_scene(request: Request) -> Response:
     scene = await read_json_body(request)
     if not is_scene(scene):
         raise SpecError("materials", "the body must be a scene: a JSON object with a 'materials' list")
-    parse_scene(scene)  # 400 before taking a compute slot
+    parsed = parse_scene(scene)  # 400 before taking a compute slot
+    name = f"{scene_key(parsed, tol)}.scene"
+    # POST answers are not stored by HTTP caches; the ETag lets a client revalidate cheaply
+    headers = {"ETag": f'"{name}"', "Cache-Control": "no-cache"}
+    if etag_matches(request, headers["ETag"]):
+        return Response(status_code=304, headers=headers)
     store = store_of(request)
+    payload = await store._cache_get(name)
+    if payload is None:
+        payload = await store.flight.run(name, lambda: _plan_and_store(store, name, scene, tol, request.app.state.settings))
+    return Response(payload, media_type="application/json", headers=headers)
+
+
+async def _plan_and_store(store, name: str, scene: dict, tol, settings) -> bytes:
     loop = asyncio.get_running_loop()
-    body = await loop.run_in_executor(store.compute_pool, _plan, scene, tol, request.app.state.settings)
-    text = json.dumps(body, default=json_default, allow_nan=False)
-    return Response(text, media_type="application/json", headers={"Cache-Control": "no-store"})
+    body = await loop.run_in_executor(store.compute_pool, _plan, scene, tol, settings)
+    payload = json.dumps(body, default=json_default, allow_nan=False).encode()
+    await loop.run_in_executor(store.io_pool, store._store, name, payload)
+    return payload
