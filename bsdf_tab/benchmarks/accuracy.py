@@ -16,10 +16,14 @@ Gauss-Legendre product rule on alpha-graded panels split at every kink, at two r
 bound is the difference, ~1e-10). It lives in the source tree, not in the installed package:
 run from a checkout. Reference values are cached under the output folder.
 
-Peers: Mitsuba 3 when ``import mitsuba`` works (else skipped and reported), and the shipped
-tables in ``../shared/anchors`` (relative to the repository root; skipped when absent): Cycles
-``ggx_E`` (correlated, 2^23 samples per cell) and ``ggx_glass_E`` (eta > 1), OpenPBR
-``ideal_metal_energy_complement`` (separable), each judged at its own axes.
+Peers: Mitsuba 3 (:mod:`bsdf_tab.benchmarks.mitsuba_peer`, imported only here, at run time):
+when ``import mitsuba`` works and a variant can be set, it estimates the separable-shadowing
+cases by sampling its ``roughconductor`` / ``roughdielectric`` at 2^10 .. 2^20 samples per
+texel, and our ``adaptive``, ``mc_vndf`` and ``qmc_vndf`` run on the same texels in the same
+run; otherwise it is skipped and the reason recorded (``--no-mitsuba`` skips it). And the
+shipped tables in ``../shared/anchors`` (relative to the repository root; skipped when
+absent): Cycles ``ggx_E`` (correlated, 2^23 samples per cell) and ``ggx_glass_E`` (eta > 1),
+OpenPBR ``ideal_metal_energy_complement`` (separable), each judged at its own axes.
 """
 
 from __future__ import annotations
@@ -212,12 +216,27 @@ def pareto(points):
 # ------------------------------------------------------------------------------ peers
 
 
-def _mitsuba_status() -> dict:
+def mitsuba_peer(result: dict, cache_dir: Path | None, workers=None, device=None, enabled: bool = True,
+                 log: Callable[[str], None] = print) -> dict:
+    """Run the Mitsuba 3 peer on the sweep's texels (:func:`bsdf_tab.benchmarks.mitsuba_peer.peer_run`),
+    with those of our ``adaptive``, ``mc_vndf`` and ``qmc_vndf`` that the sweep ran on the same cases.
+
+    Returns its result, or ``{"available": False, "ran": False, "note": why}`` when it is
+    disabled, Mitsuba does not import, or no variant can be set. A failure inside the peer run
+    is reported the same way (``ran`` False) rather than losing the sweep.
+    """
+    if not enabled:
+        return {"available": False, "ran": False, "note": "skipped: disabled (--no-mitsuba)"}
+    from . import mitsuba_peer as peer
+
+    mg, ag = np.meshgrid(np.array(result["axes"]["mu"]), np.array(result["axes"]["alpha"]), indexing="ij")
     try:
-        import mitsuba  # noqa: F401
-    except Exception as exc:  # noqa: BLE001 - any import failure means: skip
-        return {"available": False, "note": f"skipped: import mitsuba failed ({type(exc).__name__}: {exc})"}
-    return {"available": True, "note": "mitsuba importable, but the peer run is not implemented here"}
+        ladders = peer.SAME_CASE_EFFORTS_QUICK if result.get("quick") else peer.SAME_CASE_EFFORTS_FULL
+        same = {m: e for m, e in ladders.items() if m in result["efforts"]}  # the methods this sweep ran
+        return peer.peer_run(bool(result.get("quick")), mg.ravel(), ag.ravel(), cache_dir=cache_dir,
+                             workers=workers, device=device, log=log, same_case_efforts=same)
+    except Exception as exc:  # noqa: BLE001 - a peer failure must not lose the sweep
+        return {"available": True, "ran": False, "note": f"failed: {type(exc).__name__}: {exc}"}
 
 
 def anchors(quick: bool, cache_dir: Path | None, anchor_dir: Path = ANCHORS) -> list[dict]:
@@ -364,10 +383,12 @@ def aggregate(rows: list[dict]) -> list[dict]:
 # ------------------------------------------------------------------------------ figures
 
 
-def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
+def chart(result: dict, path: Path, peers: list[dict] | None = None, mitsuba: dict | None = None) -> None:
     """Three panels: max error and mean error against time per 1000 texels (log-log, one curve
     per method, Pareto front dashed), and mean error against samples per texel with the peer
-    tables as points."""
+    tables as points. When the Mitsuba peer ran (``mitsuba["ran"]``), its points are a magenta
+    diamond curve on all three panels, and our methods on the same (separable) cases are thin
+    dotted curves in their colours; the Pareto front is the main sweep's only."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -390,6 +411,8 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
         fy = [max(summary[k][key], floor) for k in front]
         ax.step(fx, fy, where="post", ls="--", color="gray", lw=1.2, label="Pareto front")
         ax.plot(fx, fy, "o", mfc="none", mec="gray", ms=12)
+        if mitsuba and mitsuba.get("ran"):
+            _mitsuba_curves(ax, mitsuba, "time_per_1k_texels_s", key, floor)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("wall time per 1000 texels [s]")
@@ -397,12 +420,14 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
         ax.set_title(f"error vs time: {title}")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].plot([], [], "x", color="red", ms=9, mew=2, label="honesty < 99.9%")
-    axes[0].legend(fontsize=8, loc="lower left")
+    axes[0].legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=3)
     ax = axes[2]
     for method in dict.fromkeys(s["method"] for s in summary):
         pts = [s for s in summary if s["method"] == method]
         ax.plot([s["evals_per_texel"] for s in pts], [max(s["mean_abs_err"], floor) for s in pts], "o-",
                 color=COLORS.get(method), label=method, ms=5)
+    if mitsuba and mitsuba.get("ran"):
+        _mitsuba_curves(ax, mitsuba, "samples_per_texel", "mean_abs_err", floor)
     xmax = max(s["evals_per_texel"] for s in summary)
     for k, p in enumerate(peers or []):
         x = p["samples_per_texel"] or xmax * 4
@@ -423,6 +448,25 @@ def chart(result: dict, path: Path, peers: list[dict] | None = None) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
+
+
+def _mitsuba_curves(ax, mitsuba: dict, xkey: str, ykey: str, floor: float) -> None:
+    """Mitsuba's points (magenta diamonds) and our methods on the same cases (dotted)."""
+    ncases = len(mitsuba.get("cases", []))
+    pts = mitsuba["summary"]
+    x = [s[xkey] for s in pts]
+    y = [max(s[ykey], floor) for s in pts]
+    ax.plot(x, y, "D-", color="magenta", ms=6, lw=1.6,
+            label=f"Mitsuba 3 {mitsuba.get('variant')} ({ncases} separable cases)")
+    for s, xx, yy in zip(pts, x, y):
+        if s["honesty"] < 0.999:
+            ax.plot(xx, yy, "x", color="red", ms=11, mew=2)
+    same = mitsuba.get("same_cases", {}).get("summary", [])
+    for method in dict.fromkeys(s["method"] for s in same):
+        sel = [s for s in same if s["method"] == method]
+        sx = [s["evals_per_texel"] if xkey == "samples_per_texel" else s[xkey] for s in sel]
+        ax.plot(sx, [max(s[ykey], floor) for s in sel], ".:", color=COLORS.get(method), lw=1.0, ms=4,
+                label=f"{method}, Mitsuba's cases")
 
 
 def heatmaps(result: dict, path: Path) -> None:
@@ -469,8 +513,9 @@ def heatmaps(result: dict, path: Path) -> None:
 
 
 def run(quick: bool = False, out_dir: Path | str = DEFAULT_OUT, methods=None, workers=None, device=None,
-        anchors_dir: Path | str | None = None, log: Callable[[str], None] = print) -> dict:
-    """The whole benchmark: sweep, peers, JSON and PNGs under ``out_dir``. Returns the summary."""
+        anchors_dir: Path | str | None = None, log: Callable[[str], None] = print, mitsuba: bool = True) -> dict:
+    """The whole benchmark: sweep, peers, JSON and PNGs under ``out_dir``. Returns the summary.
+    ``mitsuba=False`` skips the Mitsuba 3 peer (recorded as skipped)."""
     import warp as wp
 
     wp.config.quiet = True
@@ -482,15 +527,16 @@ def run(quick: bool = False, out_dir: Path | str = DEFAULT_OUT, methods=None, wo
         log(f"peer {p['name']}: {p['n_texels']} texels, max err {p['max_abs_err']:.2e}, mean {p['mean_abs_err']:.2e}")
     if not peers:
         log(f"peer tables: none found under {anchors_dir or ANCHORS} (skipped)")
-    mitsuba = _mitsuba_status()
-    log(f"mitsuba: {mitsuba['note']}")
+    log("mitsuba: " + ("running the peer" if mitsuba else "disabled"))
+    mitsuba_result = mitsuba_peer(result, out_dir / "cache", workers=workers, device=device, enabled=mitsuba, log=log)
+    log(f"mitsuba: {mitsuba_result['note']}" + ("" if mitsuba_result.get("ran") else " (not run)"))
     stem = "accuracy_quick" if quick else "accuracy"
-    chart(result, out_dir / f"{stem}.png", peers)
+    chart(result, out_dir / f"{stem}.png", peers, mitsuba_result)
     heatmaps(result, out_dir / f"{stem}_heatmaps.png")
     public = {k: v for k, v in result.items() if not k.startswith("_")}
     public["heatmaps"] = {m: {"max_abs_err": result["_maps"][m], "honest": result["_honest_maps"][m]}
                           for m in result["_maps"]}
-    public["peers"] = {"anchors": peers, "mitsuba": mitsuba}
+    public["peers"] = {"anchors": peers, "mitsuba": mitsuba_result}
     public["files"] = {"chart": f"{stem}.png", "heatmaps": f"{stem}_heatmaps.png"}
     (out_dir / f"{stem}.json").write_text(json.dumps(public, indent=1), encoding="utf-8")
     log(f"wrote {out_dir / (stem + '.json')}, {stem}.png, {stem}_heatmaps.png")
@@ -504,10 +550,12 @@ def configure_parser(parser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="worker threads (default: all cores)")
     parser.add_argument("--device", default=None, help="Warp device (default: CUDA if present, else cpu)")
     parser.add_argument("--anchors", default=None, help="peer tables folder (default: ../shared/anchors)")
+    parser.add_argument("--no-mitsuba", action="store_true",
+                        help="skip the Mitsuba 3 peer (it runs when mitsuba imports and a variant can be set)")
 
 
 def main_from_args(args) -> int:
     methods = args.methods.split(",") if args.methods else None
     run(quick=args.quick, out_dir=args.out, methods=methods, workers=args.workers, device=args.device,
-        anchors_dir=args.anchors)
+        anchors_dir=args.anchors, mitsuba=not getattr(args, "no_mitsuba", False))
     return 0
