@@ -8,7 +8,7 @@ Python callers can all point at the exact place to fix.
 
 from __future__ import annotations
 
-__all__ = ["SpecError"]
+__all__ = ["SpecError", "TexelLimitError"]
 
 
 class SpecError(ValueError):
@@ -42,3 +42,17 @@ class SpecError(ValueError):
 
     def __reduce__(self):
         return (type(self), (self.param, self.message))
+
+
+class TexelLimitError(SpecError):
+    """A valid request whose table would exceed a texel limit (the service answers 413).
+
+    ``limit`` is the texel limit that was hit.
+    """
+
+    def __init__(self, param: str | None, message: str, limit: int | None = None) -> None:
+        self.limit = limit
+        super().__init__(param, message)
+
+    def __reduce__(self):
+        return (type(self), (self.param, self.message, self.limit))

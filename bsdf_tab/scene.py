@@ -54,9 +54,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import SpecError
+from .errors import SpecError, TexelLimitError
 
-__all__ = ["parse_scene", "plan_scene", "bake_scene", "lookup", "axes_from_manifest", "ScenePlan", "TablePlan", "AxisPlan", "is_scene"]
+__all__ = ["parse_scene", "plan_scene", "bake_scene", "lookup", "axes_from_manifest", "ScenePlan", "TablePlan", "AxisPlan", "is_scene", "check_tol"]
 
 MATERIAL_TYPES = ("conductor", "dielectric", "schlick")
 INTERPOLATIONS = ("linear", "nearest")
@@ -89,6 +89,11 @@ def _num(v: Any, param: str, lo: float | None = None, hi: float | None = None, l
     if hi is not None and x > hi:
         raise SpecError(param, f"must be <= {hi:g}, got {x!r}")
     return x
+
+
+def check_tol(tol: Any, param: str = "tolerance") -> float:
+    """A lookup tolerance: a finite number in ``TOL_RANGE`` (SpecError naming ``param`` otherwise)."""
+    return _num(tol, param, *TOL_RANGE)
 
 
 def _values(v: Any, param: str, lo: float, hi: float, lo_open: bool = False) -> dict:
@@ -155,7 +160,7 @@ def parse_scene(scene: dict | str) -> dict:
                                   for s in spacings))
     out: dict[str, Any] = {"lookup": {"interpolation": interp, "spacings": spacings}}
     if "tolerance" in scene:
-        out["tolerance"] = _num(scene["tolerance"], "tolerance", *TOL_RANGE)
+        out["tolerance"] = check_tol(scene["tolerance"])
     mats = scene.get("materials")
     if not isinstance(mats, list) or not mats:
         raise SpecError("materials", "must be a non-empty list of materials")
@@ -458,8 +463,9 @@ def lookup(values: np.ndarray, axes: list[AxisPlan], points: list[np.ndarray], i
 class _Cache:
     """Memoized tabulate calls, keyed by the canonical spec."""
 
-    def __init__(self, tabulate: Callable, device, workers):
+    def __init__(self, tabulate: Callable, device, workers, max_texels: int | None = None):
         self.tabulate, self.device, self.workers = tabulate, device, workers
+        self.max_texels = max_texels
         self.tables: dict[str, Any] = {}
         self.calls = 0
 
@@ -543,8 +549,13 @@ def _check(plan: TablePlan, combo, sizes, tol: float, interpolation: str, cache:
     """Verify one candidate (spacings ``combo``, node counts ``sizes`` of the interp axes).
 
     Tabulates the refined grid (every cell midpoint added) and returns (max error, per-axis
-    midpoint errors, the fine table), or None past the caps.
+    midpoint errors, the fine table), None past the caps, or "limit" when the candidate itself
+    has more texels than ``cache.max_texels`` (checked before anything is computed).
     """
+    if cache.max_texels is not None:
+        own = int(np.prod(sizes)) * int(np.prod([len(a.values) for a in plan.axes if a.mode != "interp"]))
+        if own > cache.max_texels:
+            return "limit"
     fine_axes = {}
     it = iter(zip(combo, sizes))
     for a in plan.axes:
@@ -583,10 +594,14 @@ def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation:
     target = PLAN_MARGIN * tol
     frontier = [(1 if not interp else 2 ** len(interp), ci, tuple(2 for _ in interp)) for ci in range(len(combos))]
     best = None
+    limited = False
     while frontier:
         frontier.sort()
         texels, ci, sizes = frontier.pop(0)
         res = _check(plan, combos[ci], sizes, tol, interpolation, cache)
+        if res == "limit":
+            limited = True
+            continue
         if res is None:
             continue
         total, per_axis, fine = res
@@ -596,6 +611,13 @@ def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation:
         worst = int(np.argmax(per_axis))
         grown = tuple(2 * n - 1 if k == worst else n for k, n in enumerate(sizes))
         frontier.append((int(np.prod(grown)), ci, grown))
+    if best is None and limited:
+        raise TexelLimitError(
+            "tolerance",
+            f"table {plan.file} cannot reach {tol:g} within the limit of {cache.max_texels} texels per table; "
+            "loosen the tolerance",
+            limit=cache.max_texels,
+        )
     if best is None:
         raise SpecError(
             "tolerance",
@@ -629,6 +651,7 @@ def plan_scene(
     device: str | None = None,
     workers: int | None = None,
     tabulate: Callable | None = None,
+    max_texels: int | None = None,
 ) -> ScenePlan:
     """Plan (and compute) the minimal tables of a scene for lookup error ``tol``.
 
@@ -641,6 +664,9 @@ def plan_scene(
         scene's ``tolerance``.
     tabulate : callable, optional
         ``tabulate(spec, device=, workers=)``; default :func:`bsdf_tab.api.tabulate`.
+    max_texels : int, optional
+        Largest table the caller accepts. Candidates above it are skipped before anything is
+        computed; when no smaller candidate meets ``tol``, :class:`TexelLimitError`.
 
     Returns
     -------
@@ -652,10 +678,10 @@ def plan_scene(
         if "tolerance" not in sc:
             raise SpecError("tolerance", "is required: give --tol T (or a scene 'tolerance')")
         tol = sc["tolerance"]
-    tol = _num(tol, "tolerance", *TOL_RANGE)
+    tol = check_tol(tol)
     if tabulate is None:
         from .api import tabulate
-    cache = _Cache(tabulate, device, workers)
+    cache = _Cache(tabulate, device, workers, max_texels)
     spacings = sc["lookup"]["spacings"]
     interpolation = sc["lookup"]["interpolation"]
     groups: dict[tuple, list[dict]] = {}

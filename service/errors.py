@@ -24,7 +24,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from bsdf_tab.errors import SpecError
+from bsdf_tab.errors import SpecError, TexelLimitError
 
 __all__ = ["ServiceError", "install_handlers", "query_param_for", "error_body"]
 
@@ -88,6 +88,8 @@ def error_body(status: int, code: str, message: str, param=None, allowed=None, q
 
 
 def from_spec_error(exc: SpecError) -> ServiceError:
+    if isinstance(exc, TexelLimitError):
+        return ServiceError(413, "too_many_texels", exc.message, param=exc.param, allowed={"max_texels": exc.limit})
     status, code = 400, "invalid_parameter"
     if exc.param == "table" and exc.message.startswith("must be one of"):
         status, code = 404, "unknown_table"

@@ -1,7 +1,9 @@
 """Scenes: parse, plan (minimal tables, verified error), bake with manifest, CLI, POST /scenes.
 
 The planned tables are checked against direct ``tabulate`` at random points of each
-material's ranges (explicit axes), as the renderer looks them up (``scene.lookup``).
+material's ranges (explicit axes), read back the way a renderer would from the manifest alone
+(``_renderer_lookup``: SciPy's grid interpolator in the decoded texel coordinate, written here
+apart from ``scene.lookup``).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from bsdf_tab import cli
 from bsdf_tab.api import tabulate
 from bsdf_tab.errors import SpecError
 from bsdf_tab.exr import read_exr
-from bsdf_tab.scene import axes_from_manifest, bake_scene, lookup, parse_scene, plan_scene
+from bsdf_tab.scene import bake_scene, lookup, parse_scene, plan_scene
 
 METALS = {
     "materials": [
@@ -69,6 +71,34 @@ def _material_points(mat: dict, rng, n: int = 4) -> dict:
     return out
 
 
+def _renderer_lookup(entry: dict, values: np.ndarray, points: dict, interpolation: str) -> np.ndarray:
+    """Read ``values`` (a table channel) at the grid ``points`` ({axis: coordinates}) as a
+    renderer does from the manifest entry: an ``index`` axis picks its listed value; an
+    interpolated axis is linear or nearest in the texel coordinate t = (g(x) - g(lo)) /
+    (g(hi) - g(lo)) with g = sqrt for ``square`` spacing and g(x) = x for ``linear``."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    grid, query = [], []
+    values = np.asarray(values, dtype=np.float64)
+    for k, ax in enumerate(entry["axes"]):
+        x = np.asarray(points[ax["name"]], dtype=np.float64)
+        if ax["lookup"] == "index":
+            idx = [ax["values"].index(v) if v in ax["values"] else int(np.argmin(np.abs(np.asarray(ax["values"]) - v)))
+                   for v in x]
+            assert np.allclose(np.asarray(ax["values"])[idx], x), (ax, x)
+            values = np.take(values, idx, axis=k)
+            grid.append(np.arange(len(idx), dtype=np.float64))
+            query.append(np.arange(len(idx), dtype=np.float64))
+            continue
+        g = np.sqrt if ax["spacing"] == "square" else (lambda v: v)
+        lo, hi = ax["range"]
+        grid.append(np.linspace(0.0, ax["size"] - 1.0, ax["size"]))
+        query.append((g(np.clip(x, lo, hi)) - g(lo)) / (g(hi) - g(lo)) * (ax["size"] - 1))
+    mesh = np.meshgrid(*query, indexing="ij")
+    interp = RegularGridInterpolator(grid, values, method=interpolation)
+    return interp(np.stack([m.ravel() for m in mesh], axis=-1)).reshape(mesh[0].shape)
+
+
 @pytest.mark.parametrize("name,scene,tol", SCENES, ids=[s[0] for s in SCENES])
 def test_baked_tables_meet_tol_at_random_points(name, scene, tol, tmp_path):
     plan = planned(name, scene, tol)
@@ -81,25 +111,26 @@ def test_baked_tables_meet_tol_at_random_points(name, scene, tol, tmp_path):
         info = manifest["materials"][mat["name"]]
         entry = entries[info["table"]]
         table = read_exr(tmp_path / info["table"])
-        axes = axes_from_manifest(entry)
         pts = _material_points(mat, rng)
         mu = sorted(set(np.round(rng.uniform(0.0, 1.0, 9), 12).tolist()) | {0.0, 1.0})
         direct_axes = {"mu": mu}
-        for ax in axes[1:]:
-            if ax.name in pts:
-                direct_axes[ax.name] = pts[ax.name]
+        for ax in entry["axes"][1:]:
+            if ax["name"] in pts:
+                direct_axes[ax["name"]] = pts[ax["name"]]
             else:  # table axis alpha, material given as roughness
-                direct_axes[ax.name] = sorted({r * r for r in pts["roughness"]})
+                direct_axes[ax["name"]] = sorted({r * r for r in pts["roughness"]})
         spec = dict(entry["spec"], axes=direct_axes, tolerance=1e-7)
         direct = tabulate(spec)
-        grids = np.meshgrid(*[np.asarray(v) for v in direct_axes.values()], indexing="ij")
+
+        def read(ch):
+            return _renderer_lookup(entry, table.channels[ch], direct_axes, interp)
+
         for ch in entry["channels"]:
-            got = lookup(np.asarray(table.channels[ch], dtype=np.float64), axes, grids, interp)
-            err = np.abs(got - direct.channels[ch]) + direct.channels[ch + "_err"]
+            err = np.abs(read(ch) - direct.channels[ch]) + direct.channels[ch + "_err"]
             assert err.max() <= tol, (name, mat["name"], ch, float(err.max()))
         if entry["table"] == "dfg":  # E = f0 A + B with the material's f0
             f0 = float(np.max(mat["f0"]))
-            e_tab = f0 * lookup(table.channels["A"], axes, grids, interp) + lookup(table.channels["B"], axes, grids, interp)
+            e_tab = f0 * read("A") + read("B")
             e_dir = f0 * direct.channels["A"] + direct.channels["B"]
             assert np.abs(e_tab - e_dir).max() <= tol
     # the plan's reported error is the verified one and below tol
@@ -235,6 +266,39 @@ def test_service_post_scenes(tmp_path):
         assert client.post("/scenes", json={"table": "albedo"}).status_code == 400
         notol = client.post("/scenes", json=TINY)
         assert notol.status_code == 400 and notol.json()["error"]["param"] == "tolerance"
+        for tol in ("nan", "inf", "-inf", "0", "1e-9", "0.5"):
+            r = client.post("/scenes", params={"tol": tol}, json=TINY)
+            assert r.status_code == 400 and r.json()["error"]["param"] == "tol", (tol, r.text)
+
+
+def test_service_scene_above_the_texel_limit_is_413_before_computing(tmp_path, monkeypatch):
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    import bsdf_tab.api
+    from service.app import create_app
+    from service.settings import Settings
+
+    computed = []
+    real = bsdf_tab.api.tabulate
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: computed.append(spec) or real(spec, **kw))
+    # a range of roughness needs more than 3 texels along mu x alpha: every candidate is too big
+    scene = {"materials": [{"name": "m", "type": "conductor", "eta": 2.5, "k": 3.0, "alpha": {"range": [0.2, 0.6]}}]}
+    with TestClient(create_app(Settings(cache_dir=tmp_path / "cache", warmup=False, workers=1, max_texels=3))) as client:
+        r = client.post("/scenes", params={"tol": "1e-3"}, json=scene)
+    assert r.status_code == 413, r.text
+    err = r.json()["error"]
+    assert err["param"] == "tolerance" and err["allowed"] == {"max_texels": 3} and "3 texels" in err["message"]
+    assert computed == []  # skipped before anything was tabulated
+
+
+def test_plan_within_a_texel_budget_is_still_verified():
+    plan = plan_scene(TINY, 2e-3, max_texels=64)
+    (t,) = plan.tables
+    assert int(np.prod(t.shape)) <= 64 and plan.max_error <= 2e-3
+    with pytest.raises(SpecError) as exc:
+        plan_scene(TINY, 1e-6, max_texels=4)
+    assert exc.value.param == "tolerance" and type(exc.value).__name__ == "TexelLimitError"
 
 
 def test_service_scene_answers_are_cached_with_etag(tmp_path, monkeypatch):
@@ -289,7 +353,25 @@ def test_mixed_alpha_and_roughness_share_an_alpha_axis():
     man = plan.to_dict()["materials"]
     assert man["a"]["coords"]["alpha"]["index"] == [0]
     assert man["r"]["coords"]["alpha"] == {"values": [0.25], "index": [1]} and "roughness^2" in man["r"]["note"]
-    direct = tabulate(dict(table.spec(), axes={"mu": [0.0, 0.37, 1.0], "alpha": [0.1, 0.25]}, tolerance=1e-7))
-    grids = np.meshgrid(np.array([0.0, 0.37, 1.0]), np.array([0.1, 0.25]), indexing="ij")
+    points = {"mu": [0.0, 0.37, 1.0], "alpha": [0.1, 0.25]}
+    direct = tabulate(dict(table.spec(), axes=points, tolerance=1e-7))
+    (entry,) = plan.to_dict()["tables"]
     for ch in ("A", "B"):
-        assert np.abs(lookup(table.table.channels[ch], table.axes, grids, "linear") - direct.channels[ch]).max() <= 5e-3
+        got = _renderer_lookup(entry, table.table.channels[ch], points, "linear")
+        assert np.abs(got - direct.channels[ch]).max() <= 5e-3
+
+
+@pytest.mark.parametrize("interpolation", ["linear", "nearest"])
+def test_scene_lookup_matches_a_renderer_read(interpolation):
+    """``scene.lookup`` (the planner's error check) reads tables as the manifest says."""
+    plan = planned("glass3d", GLASS3D, 5e-3)
+    (tp,) = plan.tables
+    (entry,) = plan.to_dict()["tables"]
+    rng = np.random.default_rng(3)
+    points = {"mu": np.sort(rng.uniform(0, 1, 7)), "alpha": np.sort(rng.uniform(0.3, 0.5, 5)),
+              "eta": np.sort(rng.uniform(1.3, 1.6, 4))}
+    grids = np.meshgrid(*points.values(), indexing="ij")
+    for ch in entry["channels"]:
+        got = lookup(np.asarray(tp.table.channels[ch], dtype=np.float64), tp.axes, grids, interpolation)
+        want = _renderer_lookup(entry, tp.table.channels[ch], points, interpolation)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)

@@ -232,3 +232,57 @@ def test_fuzz_post_tables(body, fmt, accept):
         headers["Accept"] = accept
     params = {"format": fmt} if fmt is not None else None
     check(client().post("/tables", content=body, params=params, headers=headers))
+
+
+def _scene_like():
+    number = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0, 1, 0.3, 1.5, -1, 1e300]),
+                       st.text(max_size=3))
+    values = st.one_of(number, st.lists(number, max_size=3),
+                       st.fixed_dictionaries({"range": st.lists(number, max_size=3)}), json_values)
+    material = st.fixed_dictionaries(
+        {"type": st.one_of(st.sampled_from(["conductor", "dielectric", "schlick"]), json_values)},
+        optional={
+            "name": st.one_of(st.text(max_size=4), st.integers()),
+            "distribution": st.sampled_from(["ggx", "beckmann", "phong"]),
+            "shadowing": st.sampled_from(["correlated", "separable", 1]),
+            "alpha": values, "roughness": values, "eta": values, "k": number,
+            "ior": st.lists(number, max_size=3), "f0": st.one_of(number, st.lists(number, max_size=4)),
+            "extra": st.integers(),
+        },
+    )
+    lookup = st.one_of(json_values, st.fixed_dictionaries({}, optional={
+        "interpolation": st.sampled_from(["linear", "nearest", "cubic", 3]),
+        "spacings": st.one_of(st.lists(st.sampled_from(["linear", "square", "sqrt", "log"]), max_size=3), json_values)}))
+    return st.fixed_dictionaries(
+        {"materials": st.one_of(st.lists(material, max_size=3), json_values)},
+        optional={"lookup": lookup, "tolerance": number, "name": json_values, "x": st.integers()},
+    )
+
+
+TINY_SCENE = {"tolerance": 0.05, "materials": [{"name": "steel", "type": "conductor", "eta": 2.5, "k": 3.0, "alpha": 0.3}]}
+
+
+@settings(FUZZ, max_examples=max(EXAMPLES // 2, 10))
+@given(
+    body=st.one_of(
+        st.just(json.dumps(TINY_SCENE).encode()),  # a valid scene: only the query is fuzzed
+        _scene_like().map(lambda d: json.dumps(d).encode()),
+        json_values.map(lambda v: json.dumps(v).encode()),
+        st.binary(max_size=64),
+    ),
+    tol=st.one_of(st.none(), st.sampled_from(["1e-2", "0.05", "1e-5"] + EDGE_NUMBERS), numbers, junk),
+)
+def test_fuzz_post_scenes(body, tol):
+    params = {"tol": tol} if tol is not None else None
+    r = client().post("/scenes", content=body, params=params, headers={"Content-Type": "application/json"})
+    SCENE_STATUSES.add(r.status_code)
+    check(r)
+
+
+SCENE_STATUSES: set = set()
+
+
+def test_fuzz_post_scenes_reached_the_planner():
+    if not SCENE_STATUSES:
+        test_fuzz_post_scenes()
+    assert {200, 413} & SCENE_STATUSES, SCENE_STATUSES  # valid scenes were planned, not only rejected

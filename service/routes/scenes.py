@@ -7,8 +7,8 @@ Body: a scene JSON object (``materials``, optional ``lookup`` and ``tolerance``)
      "tables": {"<file>.exr": {"format": "exr", "encoding": "base64", "bytes": n, "data": "..."}}}
 
 Errors: a bad scene or tolerance -> 400 naming the parameter (``materials[0].alpha``), a
-planned table above the service's texel limit -> 413. The planner's own caps (nodes per axis,
-check texels) bound the computation. Planning runs in the compute pool, off the event loop.
+planned table above the service's texel limit -> 413 (such candidates are skipped before
+anything is computed). The planner's own caps (nodes per axis, check texels) bound the computation. Planning runs in the compute pool, off the event loop.
 
 The planner is deterministic, so the answer is cached like a table: key = package version +
 sha256 of the normalized scene and ``tol``; simultaneous requests for one scene share one
@@ -28,11 +28,10 @@ from fastapi.responses import Response
 
 from bsdf_tab import __version__
 from bsdf_tab.errors import SpecError
-from bsdf_tab.scene import is_scene, parse_scene, plan_scene
+from bsdf_tab.scene import check_tol, is_scene, parse_scene, plan_scene
 from bsdf_tab.table import json_default
 
 from ..cache import table_key
-from ..errors import ServiceError
 from ..params import only_params
 from .tables import etag_matches, read_json_body, store_of
 
@@ -45,9 +44,10 @@ def _tol(extra: dict) -> float | None:
     if "tol" not in extra:
         return None
     try:
-        return float(extra["tol"])
+        tol = float(extra["tol"])
     except ValueError:
         raise SpecError("tol", f"must be a number, got {extra['tol'][:40]!r}") from None
+    return check_tol(tol, "tol")  # rejects nan/inf before they reach the cache key
 
 
 def scene_key(parsed: dict, tol: float | None) -> str:
@@ -60,14 +60,9 @@ def scene_key(parsed: dict, tol: float | None) -> str:
 def _plan(scene: dict, tol, settings) -> dict:
     from bsdf_tab.api import tabulate
 
-    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, tabulate=tabulate)
-    for t in plan.tables:
-        n = 1
-        for s in t.shape:
-            n *= s
-        if n > settings.max_texels:
-            raise ServiceError(413, "too_many_texels", f"table {t.file} needs {n} texels; at most {settings.max_texels}",
-                               param="tol", allowed={"max_texels": settings.max_texels})
+    # candidates above the texel limit are skipped before computing; none left -> 413
+    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, tabulate=tabulate,
+                      max_texels=settings.max_texels)
     tables = {}
     for t in plan.tables:
         data = t.table.to_exr_bytes()
