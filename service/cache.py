@@ -225,13 +225,37 @@ class DiskCache:
         return name in self._ensure_index()
 
     def summary(self) -> dict:
-        """Entries, bytes, cap and hit/miss counters (for /healthz)."""
-        return {
-            "entries": len(self),
-            "bytes": self.total_bytes,
-            "max_bytes": self.max_bytes,
-            **self.stats,
-        }
+        """Entries, bytes, cap and hit/miss counters (for /healthz).
+
+        Never scans the folder (a liveness probe must not block on, or fail with, the disk):
+        before the first cache access ``entries`` and ``bytes`` are None.
+        """
+        with self._lock:
+            index = self._index
+            return {
+                "entries": None if index is None else len(index),
+                "bytes": None if index is None else self._total,
+                "max_bytes": self.max_bytes,
+                **self.stats,
+            }
+
+    def check_folder(self) -> None:
+        """Create the cache folder if needed and make sure entries can be written there.
+
+        Raises
+        ------
+        ValueError
+            One line naming the folder and the reason (a file in the way, no permission).
+        """
+        try:
+            if self.folder.exists() and not self.folder.is_dir():
+                raise ValueError(f"{self.folder} exists and is not a folder")
+            self.folder.mkdir(parents=True, exist_ok=True)
+            probe = self.folder / f".write-check.{os.getpid()}.{uuid.uuid4().hex}{_TMP_SUFFIX}"
+            probe.write_bytes(b"")
+            _unlink(probe)
+        except OSError as exc:
+            raise ValueError(f"cannot use {self.folder} as the cache folder: {exc.strerror or exc}") from None
 
 
 def _unlink(path) -> None:

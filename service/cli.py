@@ -41,6 +41,10 @@ def _serve(args: argparse.Namespace) -> int:
         text = "; ".join(f"--{'-'.join(str(x) for x in e['loc']).replace('_', '-')}: {e['msg']}" for e in errors)
         raise ValueError(text or str(exc)) from None
     app = create_app(settings)
+    try:
+        app.state.store.cache.check_folder()  # a file or unwritable folder: one line, exit 2, before listening
+    except ValueError as exc:
+        raise ValueError(f"--cache-dir: {exc}") from None
     uvicorn.run(app, host=settings.host, port=settings.port, log_level=args.log_level)
     return 0
 

@@ -107,6 +107,32 @@ def test_bad_names_are_refused(tmp_path):
             c.put(name, b"x")
 
 
+def test_serve_refuses_a_cache_dir_that_is_a_file(tmp_path, capsys):
+    from bsdf_tab import cli
+
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("x")
+    code = cli.main(["serve", "--cache-dir", str(blocker), "--no-warmup", "--port", "1"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--cache-dir" in err[0] and "not a folder" in err[0], err
+    with pytest.raises(ValueError, match="not a folder"):
+        DiskCache(blocker, 1000).check_folder()
+    DiskCache(tmp_path / "new" / "deep", 1000).check_folder()  # created on demand
+    assert (tmp_path / "new" / "deep").is_dir()
+
+
+def test_healthz_does_not_scan_or_fail_on_the_cache_folder(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with TestClient(create_app(Settings(cache_dir=blocker, warmup=False, workers=1))) as client:
+        r = client.get("/healthz")
+    assert r.status_code == 200 and r.json()["cache"]["entries"] is None
+    c = DiskCache(tmp_path / "c", 1000)
+    assert c.summary()["entries"] is None  # no scan before first use
+    c.put("a.exr", b"x")
+    assert c.summary()["entries"] == 1
+
+
 def test_key_includes_version():
     assert table_key("ab" * 32, "0.1.0") != table_key("ab" * 32, "0.2.0")
     assert table_key("ab" * 32, "1.0+local/x").startswith("v1.0+local_x-")
