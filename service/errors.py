@@ -74,7 +74,7 @@ def query_param_for(param: str | None) -> str | None:
         return None
     if parts[0] == "fresnel":
         return "fresnel" if len(parts) == 1 or parts[1] == "type" else f"fresnel_{parts[1]}"
-    return parts[0] if parts[0] in ("table", "distribution", "shadowing", "method", "tolerance") else None
+    return parts[0] if parts[0] in ("table", "distribution", "shadowing", "method", "tolerance", "effort") else None
 
 
 def error_body(status: int, code: str, message: str, param=None, allowed=None, query_param=None) -> dict:

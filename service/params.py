@@ -3,7 +3,8 @@
 Query parameters of ``GET /tables/{table}`` (every one optional; the library's defaults fill
 the rest, see ``GET /tables``):
 
-- ``distribution``, ``shadowing``, ``method``, ``tolerance``: as in the spec.
+- ``distribution``, ``shadowing``, ``method``, ``tolerance``, ``effort`` (samples or nodes per
+  texel of a fixed-effort method): as in the spec.
 - ``fresnel`` (the Fresnel type), ``fresnel_f0``, ``fresnel_eta``, ``fresnel_k``.
 - per axis ``A`` of the table (``mu``, ``alpha`` or ``roughness``, ``eta``):
 
@@ -30,6 +31,7 @@ from bsdf_tab.spec import (
     DISTRIBUTIONS,
     FRESNEL_TYPES,
     MAX_AXIS_SIZE,
+    MAX_EFFORT,
     METHODS,
     NODES,
     ROUGHNESS_NAMES,
@@ -90,7 +92,7 @@ _ACCEPT = {
 AXIS_SUFFIXES = ("size", "spacing", "nodes", "min", "max", "clamp")
 AXIS_NAMES = tuple(AXIS_DEFAULTS)  # mu, alpha, roughness, eta, ... (whatever the library has)
 FRESNEL_PARAMS = tuple(sorted({p for params in FRESNEL_TYPES.values() for p in params}))
-SCALAR_PARAMS = ("distribution", "shadowing", "method", "tolerance", "fresnel") + tuple(
+SCALAR_PARAMS = ("distribution", "shadowing", "method", "tolerance", "effort", "fresnel") + tuple(
     f"fresnel_{p}" for p in FRESNEL_PARAMS
 )
 
@@ -172,6 +174,8 @@ def spec_from_query(table: str, items: Iterable[tuple[str, str]], extra: Iterabl
             spec[key] = seen[key]
     if "tolerance" in seen:
         spec["tolerance"] = _float(seen["tolerance"], "tolerance")
+    if "effort" in seen:
+        spec["effort"] = _int(seen["effort"], "effort")
     fresnel: dict[str, Any] = {}
     if "fresnel" in seen:
         fresnel["type"] = seen["fresnel"]
@@ -349,6 +353,8 @@ def catalog(settings) -> dict:
             "tolerance": {
                 "type": "number", "min": TOLERANCE_RANGE[0], "max": TOLERANCE_RANGE[1], "default": DEFAULT_TOLERANCE,
             },
+            "effort": {"type": "integer", "min": 8, "max": MAX_EFFORT,
+                       "note": "samples or nodes per texel; only fixed-effort methods (not adaptive)"},
             "fresnel": {"type": "string", "enum": sorted(FRESNEL_TYPES), "query_param": "fresnel"},
             "fresnel_params": {
                 t: {p: {"type": "number", "query_param": f"fresnel_{p}"} for p in params}
@@ -384,6 +390,8 @@ def query_parameters(extra: Iterable[dict] = ()) -> list[dict]:
         _p("shadowing", {"type": "string", "enum": sorted(SHADOWINGS)}, "shadowing-masking form"),
         _p("method", {"type": "string"}, "integration method (see GET /tables for each table's)"),
         _p("tolerance", {"type": "number"}, f"target absolute error, in {list(TOLERANCE_RANGE)}"),
+        _p("effort", {"type": "integer", "minimum": 8, "maximum": MAX_EFFORT},
+           "samples or nodes per texel of a fixed-effort method (not adaptive)"),
         _p("fresnel", {"type": "string", "enum": sorted(FRESNEL_TYPES)}, "Fresnel type"),
     ]
     out += [_p(f"fresnel_{p}", {"type": "number"}, f"Fresnel parameter {p}") for p in FRESNEL_PARAMS]
@@ -439,6 +447,7 @@ def spec_json_schema() -> dict:
             "shadowing": {"type": "string", "enum": sorted(SHADOWINGS)},
             "method": {"type": "string"},
             "tolerance": number,
+            "effort": {"type": "integer", "minimum": 8, "maximum": MAX_EFFORT},
             **{k: ({"type": "string"} if k == "parametrization" else number) for k in KIND_KEYS},
             "fresnel": {
                 "type": "object",

@@ -315,3 +315,19 @@ def test_cli_serve_is_registered():
     from bsdf_tab.cli import COMMANDS
 
     assert "serve" in COMMANDS
+
+
+def test_get_takes_effort_for_fixed_effort_methods(client):
+    q = "mu=0.5,1&alpha=0.5&method=vndf_gl&effort=64"
+    r = client.get(f"/tables/albedo?{q}&format=npz")
+    assert r.status_code == 200, r.text
+    spec = {"table": "albedo", "axes": {"mu": [0.5, 1.0], "alpha": [0.5]}, "method": "vndf_gl", "effort": 64}
+    same = client.post("/tables?format=npz", json=spec)
+    assert same.status_code == 200 and same.headers["etag"] == r.headers["etag"]
+    other = client.get("/tables/albedo?mu=0.5,1&alpha=0.5&method=vndf_gl&effort=256&format=npz")
+    assert other.status_code == 200 and other.headers["etag"] != r.headers["etag"]
+    info = client.get(f"/tables/albedo/info?{q}").json()
+    assert info["spec"]["effort"] == 64, info["spec"]
+    err(client.get("/tables/albedo?mu=1&alpha=0.5&effort=64"), 400, "effort", "effort")  # adaptive: no effort
+    err(client.get("/tables/albedo?mu=1&alpha=0.5&method=vndf_gl&effort=abc"), 400, "effort", "effort")
+    err(client.get("/tables/albedo?mu=1&alpha=0.5&method=vndf_gl&effort=2"), 400, "effort", "effort")
