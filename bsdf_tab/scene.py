@@ -40,7 +40,8 @@ Planner (:func:`plan_scene`):
 
 Bytes are counted as float32 value channels (error channels are not shipped to a renderer).
 The fixed-size alternative is one Cycles-style table per planned table: 32 x 32 for the 2-D
-kinds, 16^3 for dielectrics.
+kinds, 16^3 for dielectrics, linear in each axis; the plan reports its bytes and its lookup error
+at the same check points (:meth:`TablePlan.fixed_axes`).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -298,6 +300,7 @@ class TablePlan:
     tolerance: float  # integration tolerance of the table
     max_error: float = math.nan  # verified lookup error at the midpoints (plus integration error)
     table: Any = None  # the baked Table (values at the planned nodes)
+    fixed_error: float = math.nan  # the fixed-size alternative's lookup error at the same points
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -314,6 +317,19 @@ class TablePlan:
     @property
     def fixed_bytes(self) -> int:
         return int(np.prod(FIXED_SIZES[self.kind])) * len(self.channels) * 4
+
+    def fixed_axes(self) -> list[AxisPlan]:
+        """The fixed-size alternative: linear axes with ``FIXED_SIZES`` endpoint nodes, mu and
+        alpha / roughness over [0, max(1, hi)], eta over the hull of the scene's eta values
+        (a single eta: that value only, which favours the fixed table)."""
+        out = []
+        for a, n in zip(self.axes, FIXED_SIZES[self.kind]):
+            lo, hi = (min(a.values), max(a.values)) if a.mode == "discrete" else a.range
+            if a.name != "eta":
+                lo, hi = 0.0, max(1.0, hi)
+            out.append(AxisPlan(a.name, "interp", range=(lo, hi), spacing="linear", size=n) if hi > lo
+                       else AxisPlan(a.name, "discrete", values=[lo]))
+        return out
 
     def spec(self) -> dict:
         return _table_spec(self.kind, self.distribution, self.shadowing, self.fresnel,
@@ -339,6 +355,10 @@ class ScenePlan:
     def max_error(self) -> float:
         return max(t.max_error for t in self.tables)
 
+    @property
+    def fixed_error(self) -> float:
+        return max(t.fixed_error for t in self.tables)
+
     def to_dict(self) -> dict:
         return {
             "tolerance": self.tolerance,
@@ -346,6 +366,7 @@ class ScenePlan:
             "bytes": self.bytes,
             "fixed_bytes": self.fixed_bytes,
             "max_error": self.max_error,
+            "fixed_max_error": self.fixed_error,
             "tables": [
                 {
                     "file": t.file,
@@ -359,7 +380,9 @@ class ScenePlan:
                     "bytes": t.bytes,
                     "max_error": t.max_error,
                     "integration_tolerance": t.tolerance,
-                    "fixed_alternative": {"shape": list(FIXED_SIZES[t.kind]), "bytes": t.fixed_bytes},
+                    "fixed_alternative": {"shape": list(FIXED_SIZES[t.kind]), "bytes": t.fixed_bytes,
+                                          "max_error": t.fixed_error,
+                                          "axes": [a.describe() for a in t.fixed_axes()]},
                     "materials": list(t.materials),
                     "spec": t.spec(),
                 }
@@ -379,14 +402,16 @@ class ScenePlan:
             fixed = " x ".join(str(n) for n in FIXED_SIZES[t.kind])
             lines.append(
                 f"  {t.file}: {t.kind} {t.distribution}/{t.shadowing} -> {','.join(t.channels)}; {axes}; "
-                f"{t.bytes} bytes; max error {t.max_error:.3g}; fixed {fixed}: {t.fixed_bytes} bytes; "
+                f"{t.bytes} bytes; max error {t.max_error:.3g}; fixed {fixed}: {t.fixed_bytes} bytes, "
+                f"max error {t.fixed_error:.3g}; "
                 f"materials: {', '.join(t.materials)}"
             )
         saved = self.fixed_bytes - self.bytes
         pct = 100.0 * saved / self.fixed_bytes if self.fixed_bytes else 0.0
         lines.append(
             f"total: {self.bytes} bytes (fixed-size alternative {self.fixed_bytes} bytes; saved {saved} bytes, "
-            f"{pct:.1f}%); max lookup error {self.max_error:.3g} <= tol {self.tolerance:g}"
+            f"{pct:.1f}%); max lookup error {self.max_error:.3g} <= tol {self.tolerance:g} "
+            f"(fixed-size alternative: {self.fixed_error:.3g} at the same points)"
         )
         return "\n".join(lines)
 
@@ -509,6 +534,22 @@ def _rough_entries(mats: list[dict], name: str) -> list[dict]:
     return out
 
 
+def _combine(kind: str, diffs: dict, errs: dict) -> np.ndarray:
+    """Per-point lookup error from per-channel lookup differences and integration errors."""
+    if kind == "dfg":
+        # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
+        return np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
+    return np.max([np.abs(diffs[ch]) + errs[ch] for ch in diffs], axis=0)
+
+
+def _fine_grid(fine, kind: str) -> tuple[list[np.ndarray], dict, dict]:
+    """The check points of a refined table (meshgrid), its values and error channels."""
+    grids = np.meshgrid(*[np.asarray(v) for v in fine.axes.values()], indexing="ij")
+    vals = {ch: np.asarray(fine.channels[ch], dtype=np.float64) for ch in CHANNELS[kind]}
+    errs = {ch: np.asarray(fine.channels[ch + "_err"], dtype=np.float64) for ch in vals}
+    return grids, vals, errs
+
+
 def _errors(plan: TablePlan, fine, interpolation: str, sizes: list[int]) -> tuple[float, list[float]]:
     """Lookup error of the candidate (every other node of ``fine`` on interp axes) at the fine points.
 
@@ -517,22 +558,14 @@ def _errors(plan: TablePlan, fine, interpolation: str, sizes: list[int]) -> tupl
     """
     interp = [i for i, a in enumerate(plan.axes) if a.mode == "interp"]
     sl = tuple(slice(None, None, 2) if a.mode == "interp" else slice(None) for a in plan.axes)
-    grids = np.meshgrid(*[np.asarray(v) for v in fine.axes.values()], indexing="ij")
+    grids, vals, errs = _fine_grid(fine, plan.kind)
     d = len(plan.axes)
     # nearest: every texel that can be nearest to a cell boundary point (ties either way)
     modes = [None] if interpolation != "nearest" else [tuple(bool((c >> k) & 1) for k in range(d)) for c in range(1 << d)]
-    vals = {ch: np.asarray(fine.channels[ch], dtype=np.float64) for ch in plan.channels}
-    errs = {ch: np.asarray(fine.channels[ch + "_err"], dtype=np.float64) for ch in plan.channels}
     total = np.zeros(grids[0].shape)
     for m in modes:
         diffs = {ch: lookup(v[sl], plan.axes, grids, interpolation, m) - v for ch, v in vals.items()}
-        if plan.kind == "dfg":
-            # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
-            t = np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
-            total = np.maximum(total, t)
-        else:
-            for ch in plan.channels:
-                total = np.maximum(total, np.abs(diffs[ch]) + errs[ch])
+        total = np.maximum(total, _combine(plan.kind, diffs, errs))
     per_axis = []
     for a in interp:
         mask = np.ones(total.shape, dtype=bool)
@@ -543,6 +576,19 @@ def _errors(plan: TablePlan, fine, interpolation: str, sizes: list[int]) -> tupl
             mask &= odd.reshape(shape)
         per_axis.append(float(total[mask].max()) if mask.any() else 0.0)
     return float(total.max()), per_axis
+
+
+def _fixed_error(plan: TablePlan, fine, interpolation: str, cache: "_Cache") -> float:
+    """Lookup error of the fixed-size alternative (:meth:`TablePlan.fixed_axes`, read with the
+    scene's interpolation) at the points that verified the plan."""
+    axes = plan.fixed_axes()
+    fixed = cache(_table_spec(plan.kind, plan.distribution, plan.shadowing, plan.fresnel,
+                              {a.name: a.spec() for a in axes}, plan.tolerance))
+    grids, vals, errs = _fine_grid(fine, plan.kind)
+    diffs = {ch: lookup(np.asarray(fixed.channels[ch], dtype=np.float64), axes, grids, interpolation) - v
+             for ch, v in vals.items()}
+    fixed_err = {ch: np.max(np.asarray(fixed.channels[ch + "_err"], dtype=np.float64)) for ch in vals}
+    return float(np.max(_combine(plan.kind, diffs, errs))) + max(fixed_err.values())
 
 
 def _check(plan: TablePlan, combo, sizes, tol: float, interpolation: str, cache: _Cache):
@@ -578,7 +624,8 @@ def _check(plan: TablePlan, combo, sizes, tol: float, interpolation: str, cache:
     return total, per_axis, fine
 
 
-def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation: str, cache: _Cache) -> None:
+def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation: str, cache: _Cache,
+                log: Callable[[str], None] | None = None) -> None:
     """Best-first search over (spacing combination, doubling-ladder sizes).
 
     Every spacing combination starts at 2 nodes per interpolated axis; the candidate with the
@@ -605,6 +652,10 @@ def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation:
         if res is None:
             continue
         total, per_axis, fine = res
+        if log is not None:
+            shape = " x ".join(f"{a.name} {n} {sp}" for a, n, sp in zip(interp, sizes, combos[ci])) or "discrete axes only"
+            log(f"{plan.file}: {shape}: lookup error {total:.3g} ({'ok' if total <= target else 'refine'}; "
+                f"target {target:.3g})")
         if total <= target or not interp:
             best = (combos[ci], sizes, total, fine)
             break
@@ -642,6 +693,10 @@ def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation:
     meta["max_error"] = table.max_error()
     meta["lookup_max_error"] = err
     plan.table = table
+    plan.fixed_error = _fixed_error(plan, fine, interpolation, cache)
+    if log is not None:
+        log(f"{plan.file}: fixed-size alternative {' x '.join(map(str, FIXED_SIZES[plan.kind]))}: "
+            f"lookup error {plan.fixed_error:.3g} at the same points")
 
 
 def plan_scene(
@@ -652,6 +707,7 @@ def plan_scene(
     workers: int | None = None,
     tabulate: Callable | None = None,
     max_texels: int | None = None,
+    log: Callable[[str], None] | None = None,
 ) -> ScenePlan:
     """Plan (and compute) the minimal tables of a scene for lookup error ``tol``.
 
@@ -667,6 +723,8 @@ def plan_scene(
     max_texels : int, optional
         Largest table the caller accepts. Candidates above it are skipped before anything is
         computed; when no smaller candidate meets ``tol``, :class:`TexelLimitError`.
+    log : callable, optional
+        Receives one line per verified candidate (progress; the CLI prints them on stderr).
 
     Returns
     -------
@@ -705,7 +763,7 @@ def plan_scene(
         fname = f"{base}_{counts[base]}.exr" if kind == "albedo" else f"{base}.exr"
         tp = TablePlan(fname, kind, dist, shadowing, fresnel, axes, [m["name"] for m in mats],
                        tolerance=max(tol / 20.0, 1e-9))
-        _plan_table(tp, spacings, tol, interpolation, cache)
+        _plan_table(tp, spacings, tol, interpolation, cache, log)
         tables.append(tp)
         for m in mats:
             manifest[m["name"]] = _manifest_entry(m, tp, rname)
@@ -796,6 +854,7 @@ def configure_plan(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the plan as JSON")
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")
     parser.add_argument("--workers", type=int, default=None, help="number of parallel workers")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
 
 
 def _plan_from_args(args: argparse.Namespace) -> ScenePlan:
@@ -808,8 +867,13 @@ def _plan_from_args(args: argparse.Namespace) -> ScenePlan:
     if not is_scene(scene):
         raise SpecError("materials", f"{path} is not a scene (no top-level 'materials' list)")
     _quiet_warp(args)
+
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
     try:
-        return plan_scene(scene, args.tol, device=args.device, workers=args.workers)
+        return plan_scene(scene, args.tol, device=args.device, workers=args.workers,
+                          log=None if getattr(args, "quiet", False) else log)
     except SpecError as exc:
         raise SpecError(None, f"{path}: {exc}") from None
 

@@ -146,6 +146,31 @@ def test_plan_smaller_than_fixed_alternative(name, scene, tol):
     assert "fixed" in text and str(plan.bytes) in text
 
 
+def test_fixed_alternative_error_matches_an_independent_check():
+    """The plan's fixed-size error, recomputed from the manifest alone: the 32 x 32 table read
+    at the refined grid of the planned table (its nodes and every cell midpoint)."""
+    plan = planned("metals", METALS, 2e-3)
+    entry = plan.to_dict()["tables"][0]  # gold: mu x roughness range
+    fixed = entry["fixed_alternative"]
+    assert fixed["shape"] == [32, 32] and [a["name"] for a in fixed["axes"]] == ["mu", "roughness"]
+    fixed_axes = {a["name"]: {"size": a["size"], "spacing": "linear", "nodes": "endpoints", "range": a["range"]}
+                  for a in fixed["axes"]}
+    assert fixed_axes["mu"]["range"] == [0.0, 1.0] and fixed_axes["roughness"]["range"] == [0.0, 1.0]
+    fixed_table = tabulate(dict(entry["spec"], axes=fixed_axes, tolerance=1e-7))
+    points = {}
+    for a in entry["axes"]:
+        g, ginv = (np.sqrt, np.square) if a["spacing"] == "square" else ((lambda v: v), (lambda v: v))
+        lo, hi = a["range"]
+        points[a["name"]] = ginv(np.linspace(g(lo), g(hi), 2 * a["size"] - 1))
+    direct = tabulate(dict(entry["spec"], axes={k: v.tolist() for k, v in points.items()}, tolerance=1e-7))
+    fixed_entry = {"axes": [dict(a, lookup="interp", spacing="linear") for a in fixed["axes"]]}
+    got = _renderer_lookup(fixed_entry, fixed_table.channels["E"], points, "linear")
+    independent = float(np.abs(got - direct.channels["E"]).max())
+    # the plan integrated at tol/20 = 1e-4 per texel; here at 1e-7
+    assert abs(independent - fixed["max_error"]) <= 2.5e-4, (independent, fixed["max_error"])
+    assert fixed["max_error"] > 2e-3 > entry["max_error"]  # the fixed table misses the tolerance here
+
+
 def test_planner_merges_drops_and_restricts():
     plan = planned("metals", METALS, 2e-3)
     # one table per conductor IOR, the single roughness of copper a 1-value axis
@@ -209,9 +234,14 @@ def test_cli_plan_and_bake(tmp_path, capsys):
     path.write_text(json.dumps(TINY))
     code, out, err = _run(capsys, "plan", str(path), "--tol", "2e-3")
     assert code == 0, err
-    assert "fixed" in out and "steel" in out
-    code, out, err = _run(capsys, "plan", str(path), "--tol", "2e-3", "--json")
-    assert code == 0 and json.loads(out)["tables"][0]["table"] == "albedo"
+    assert "fixed" in out and "steel" in out and "fixed-size alternative:" in out
+    # progress: one stderr line per verified candidate, the last one accepted
+    progress = [line for line in err.splitlines() if line.startswith("ggx_correlated_albedo_1.exr:")]
+    assert len(progress) >= 2 and "refine" in progress[0] and any("(ok;" in line for line in progress), err
+    code, out, err = _run(capsys, "plan", str(path), "--tol", "2e-3", "--json", "-q")
+    plan = json.loads(out)
+    assert code == 0 and plan["tables"][0]["table"] == "albedo" and "lookup error" not in err
+    assert plan["fixed_max_error"] == plan["tables"][0]["fixed_alternative"]["max_error"] > 0
     code, out, err = _run(capsys, "bake", str(path), "--tol", "2e-3", "-o", str(tmp_path / "out"))
     assert code == 0, err
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
