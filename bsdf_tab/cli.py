@@ -149,18 +149,47 @@ def _summary(out: Path, table) -> str:
     return f"{out}: {kind} {axes}; max error {errors}"
 
 
+#: output formats of a spec file, by file name ending (``.half.exr`` before ``.exr``)
+SPEC_FORMATS = {".half.exr": "half-exr", ".exr": "exr", ".npz": "npz", ".json": "json", ".npy": "npy", ".h": "h"}
+
+
+def _output_format(out: Path, fmt: str | None) -> tuple[str, str]:
+    """(format, stem) of output file ``out``: from its ending, checked against ``--format``."""
+    name = out.name.lower()
+    for ending, kind in SPEC_FORMATS.items():
+        if name.endswith(ending):
+            if fmt is not None and fmt != kind:
+                raise CliError(f"--format {fmt} does not match the output {out.name} ({kind}); "
+                               f"use a name ending in {_ending(fmt)}")
+            return kind, out.name[: -len(ending)]
+    raise CliError(f"output {out}: the name must end in {', '.join(SPEC_FORMATS)}")
+
+
+def _ending(fmt: str) -> str:
+    return next(e for e, k in SPEC_FORMATS.items() if k == fmt)
+
+
+def _stored(table, fmt: str):
+    """The table as the file holds it (half-exr: float16 values, rounding in the error channels)."""
+    if fmt != "half-exr":
+        return table
+    from .export import to_half_table
+
+    return to_half_table(table)[0]
+
+
 def _bake_one(args: argparse.Namespace) -> int:
     spec_path = Path(args.spec)
     spec = _load_spec_file(spec_path)
-    out = Path(args.output) if args.output else spec_path.with_suffix(".exr")
+    ending = _ending(args.format) if args.format else ".exr"
+    out = Path(args.output) if args.output else spec_path.with_name(spec_path.stem + ending)
     if out.is_dir():
-        out = out / (spec_path.stem + ".exr")
-    if out.suffix.lower() not in (".exr", ".npz", ".json"):
-        raise CliError(f"output {out}: the suffix must be .exr, .npz or .json")
+        out = out / (spec_path.stem + ending)
+    fmt, stem = _output_format(out, args.format)
     if not out.parent.is_dir():
         raise CliError(f"output folder does not exist: {out.parent}")
     tabulate = _tabulate(args)
-    if spec["table"] == "bsdf" and out.suffix.lower() in (".exr", ".npz"):
+    if spec["table"] == "bsdf" and fmt in ("exr", "npz"):
         # directional tables can be large: computed and written in slices (bounded memory)
         from .tables.bsdf import bake_bsdf_streaming
 
@@ -168,8 +197,16 @@ def _bake_one(args: argparse.Namespace) -> int:
         print(_summary(out, table))
         return 0
     table = tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
-    _save(table, out)
-    print(_summary(out, table))
+    if fmt in ("exr", "npz", "json"):
+        _save(table, out)
+    else:
+        from .presets import write_table
+
+        try:
+            out = write_table(table, out.parent, stem, fmt)[0]
+        except ValueError as exc:  # e.g. values beyond the float16 range
+            raise CliError(f"output {out}: {exc}") from None
+    print(_summary(out, _stored(table, fmt)))
     return 0
 
 
@@ -205,14 +242,17 @@ def _bake_default_set(args: argparse.Namespace) -> int:
 def _configure_bake(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", nargs="?", help="spec JSON file; without it, bake the default set")
     parser.add_argument(
-        "-o", "--output", help="output file (.exr, .npz, .json); with no spec, the output folder (default: luts/)"
+        "-o", "--output",
+        help="output file (.exr, .half.exr, .npz, .json, .npy, .h); with no spec or --preset, the output folder "
+             "(default: luts/)",
     )
     parser.add_argument("--device", default=None, help="Warp device, for example cpu or cuda:0 (default: Warp's)")
     parser.add_argument("--workers", type=int, default=None, help="number of parallel workers")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--preset", default=None, help="bake an engine preset or group (see `bsdf-tab presets`) into -o DIR")
     parser.add_argument(
-        "--format", default=None, choices=("exr", "half-exr", "npy", "h"), help="file format of --preset (default: exr)"
+        "--format", default=None, choices=("exr", "half-exr", "npz", "json", "npy", "h"),
+        help="file format (a spec file: default from the -o name, else exr; --preset: exr, half-exr, npy or h)",
     )
     parser.add_argument("--tol", type=float, default=None, help="a scene file: max lookup error (docs/scenes.md)")
 
@@ -224,13 +264,15 @@ def cmd_bake(args: argparse.Namespace) -> int:
     if args.spec and getattr(args, "preset", None) is None and _is_scene_file(args.spec):
         from .scene import cmd_bake_scene
 
+        if getattr(args, "format", None) is not None:
+            raise CliError("--format: a scene is baked as EXR tables and manifest.json")
         return cmd_bake_scene(args)
     if getattr(args, "tol", None) is not None:
         raise CliError("--tol applies to a scene file (a JSON object with a 'materials' list)")
     if getattr(args, "preset", None) is not None:
         return _bake_preset(args)
-    if getattr(args, "format", None) is not None:
-        raise CliError("--format applies to --preset (a spec file's format follows the -o suffix)")
+    if getattr(args, "format", None) is not None and not args.spec:
+        raise CliError("--format applies to a spec file or --preset (the default set is baked as exr)")
     return _bake_one(args) if args.spec else _bake_default_set(args)
 
 
@@ -247,11 +289,14 @@ def _bake_preset(args: argparse.Namespace) -> int:
     if out_dir.exists() and not out_dir.is_dir():
         raise CliError(f"output {out_dir} exists and is not a folder (with --preset, -o names a folder)")
     out_dir.mkdir(parents=True, exist_ok=True)
+    fmt = args.format or "exr"
+    if fmt not in ("exr", "half-exr", "npy", "h"):
+        raise CliError(f"--format {fmt}: a preset is written as exr, half-exr, npy or h")
     tabulate = _tabulate(args)
     for name in names:
         table = build_preset(name, device=args.device, workers=args.workers, progress=not args.quiet, tabulate=tabulate)
-        paths = write_table(table, out_dir, name.replace("-", "_"), args.format or "exr")
-        print(_summary(paths[0], table))
+        paths = write_table(table, out_dir, name.replace("-", "_"), fmt)
+        print(_summary(paths[0], _stored(table, fmt)))
     return 0
 
 

@@ -252,3 +252,40 @@ def test_bake_tiny_spec_with_real_api(tmp_path, capsys):
     assert table.channels["E"][1, 1] == pytest.approx(1 - np.log(2), abs=1e-4)
     assert np.all((table.channels["E"] > 0) & (table.channels["E"] <= 1))
     assert table.meta["spec"] == normalize_spec(json.loads(spec.read_text()))
+
+
+def test_bake_spec_file_to_every_export_format(tmp_path, capsys):
+    """A spec file can be written as half EXR, .npy files or a C header (by -o name or --format),
+    and the printed max error is that of what was written (half: with the float16 rounding)."""
+    from bsdf_tab.export import read_npy
+
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": [0.3, 1.0], "alpha": [0.2, 0.6]}, "tolerance": 1e-6}))
+    code, out, err = run(capsys, "bake", str(spec), "-o", str(tmp_path / "t.half.exr"), "-q")
+    assert code == 0, err
+    half = read_exr(tmp_path / "t.half.exr")
+    printed = float(out.strip().rsplit("E ", 1)[1])
+    # float16 spacing near E ~ 0.5-1 is 2^-11 or 2^-12: the rounding dominates the 1e-6 integration error
+    assert printed == pytest.approx(float(half.channels["E_err"].astype(np.float64).max()), rel=5e-3)
+    assert printed > 1e-5
+    code, out, err = run(capsys, "bake", str(spec), "--format", "npy", "-o", str(tmp_path), "-q")
+    assert code == 0, err
+    table = read_npy(tmp_path, "s")
+    assert table.shape == (2, 2) and 1e-7 < float(out.strip().rsplit("E ", 1)[1]) <= 1e-6
+    code, out, err = run(capsys, "bake", str(spec), "-o", str(tmp_path / "lut.h"), "-q")
+    assert code == 0, err
+    text = (tmp_path / "lut.h").read_text()
+    assert "lut" in text and "0.2" in text and str(tmp_path / "lut.h") in out
+    code, _, err = run(capsys, "bake", str(spec), "--format", "h", "-o", str(tmp_path / "x.exr"), "-q")
+    assert_one_line_error(code, err, "--format h", ".h")
+
+
+def test_bake_cli_option_errors_are_one_line(tmp_path, capsys):
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"materials": [{"type": "schlick", "f0": 0.04, "alpha": 0.2}], "tolerance": 0.01}))
+    code, _, err = run(capsys, "bake", str(scene), "--format", "npy", "-o", str(tmp_path / "o"))
+    assert_one_line_error(code, err, "--format", "scene")
+    code, _, err = run(capsys, "bake", "--preset", "cycles-ggx-E", "--format", "json", "-o", str(tmp_path / "p"))
+    assert_one_line_error(code, err, "--format json")
+    code, _, err = run(capsys, "bake", "--format", "npy", "-o", str(tmp_path / "d"))
+    assert_one_line_error(code, err, "--format")
