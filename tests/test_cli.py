@@ -289,3 +289,11 @@ def test_bake_cli_option_errors_are_one_line(tmp_path, capsys):
     assert_one_line_error(code, err, "--format json")
     code, _, err = run(capsys, "bake", "--format", "npy", "-o", str(tmp_path / "d"))
     assert_one_line_error(code, err, "--format")
+
+
+@pytest.mark.parametrize("argv,fragment", [(["--methods", "bogus,adaptive"], "bogus"), (["--methods", ","], "--methods"),
+                                           (["--workers", "0"], "--workers")])
+def test_bench_accuracy_rejects_bad_options_before_running(tmp_path, capsys, argv, fragment):
+    code, out, err = run(capsys, "bench", "accuracy", "--quick", "-o", str(tmp_path), *argv)
+    assert_one_line_error(code, err, fragment)
+    assert not any(tmp_path.iterdir())  # nothing ran

@@ -555,7 +555,18 @@ def configure_parser(parser) -> None:
 
 
 def main_from_args(args) -> int:
-    methods = args.methods.split(",") if args.methods else None
+    """Validate the options (ValueError: one line naming the option), then :func:`run`."""
+    from ..integrate import METHODS
+
+    methods = None
+    if args.methods is not None:
+        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+        unknown = [m for m in methods if m not in METHODS or m not in EFFORTS_FULL]
+        if not methods or unknown:
+            raise ValueError(f"--methods: unknown method(s) {', '.join(unknown) or repr(args.methods)}; "
+                             f"choose from {', '.join(m for m in EFFORTS_FULL if m in METHODS)}")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
     run(quick=args.quick, out_dir=args.out, methods=methods, workers=args.workers, device=args.device,
         anchors_dir=args.anchors, mitsuba=not getattr(args, "no_mitsuba", False))
     return 0
