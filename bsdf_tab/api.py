@@ -16,8 +16,9 @@ _SHADOWING_TEXT = {
 }
 _METHOD_TEXT = {
     "adaptive": "nested adaptive Gauss-Kronrod (G7-K15) over micro-normal space, split at the "
-    "closed-form horizon / critical-angle curves; error = sum of |K15 - G7| over accepted "
-    "intervals plus propagated inner errors",
+    "closed-form horizon / critical-angle curves; error = sum over accepted intervals of "
+    "QUADPACK's rescaled |K15 - G7| (resasc * min(1, (200 |K15 - G7| / resasc)^1.5)) plus "
+    "propagated inner errors",
     "point": "float64 point evaluation of the BSDF (Walter eqs. 20 and 21); error = rounding bound",
 }
 
