@@ -240,7 +240,9 @@ def _bake_default_set(args: argparse.Namespace) -> int:
 
 
 def _configure_bake(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("spec", nargs="?", help="spec JSON file; without it, bake the default set")
+    parser.add_argument(
+        "spec", nargs="?", help="spec JSON file, or a scene file (JSON or .toml); without it, bake the default set"
+    )
     parser.add_argument(
         "-o", "--output",
         help="output file (.exr, .half.exr, .npz, .json, .npy, .h); with no spec or --preset, the output folder "
@@ -370,10 +372,14 @@ register_command("presets", "list the engine presets (bake one with bake --prese
 
 
 def _is_scene_file(path: str) -> bool:
-    """A spec path that holds a scene (top-level 'materials'), not one table's spec."""
+    """A spec path that holds a scene (top-level 'materials'; JSON or .toml), not one table's spec."""
+    from .scene import is_scene, load_scene_file
+
+    if Path(path).suffix.lower() == ".toml":
+        return True  # table specs are JSON; the scene loader reports what is wrong with it
     try:
-        return "materials" in json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError, TypeError):
+        return is_scene(load_scene_file(path))
+    except SpecError:
         return False  # the spec loader reports it
 
 

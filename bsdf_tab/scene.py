@@ -836,12 +836,27 @@ def _json_default(obj):
 
 
 def load_scene_file(path: str | Path) -> Any:
-    """The JSON of a scene (or spec) file; OSError / SpecError on failure."""
+    """The contents of a scene (or spec) file: TOML for a ``.toml`` name, JSON otherwise.
+
+    Raises
+    ------
+    SpecError
+        A missing or unreadable file, or invalid JSON / TOML (one line naming the file).
+    """
+    import tomllib
+
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise SpecError(None, f"file not found: {p}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(None, f"cannot read {p}: {exc}") from None
+    if p.suffix.lower() == ".toml":
+        try:
+            return tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SpecError(None, f"{p}: invalid TOML: {exc}") from None
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
@@ -849,7 +864,7 @@ def load_scene_file(path: str | Path) -> Any:
 
 
 def configure_plan(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scene", help="scene JSON file (a 'materials' list; docs/scenes.md)")
+    parser.add_argument("scene", help="scene file, JSON or .toml (a 'materials' list; docs/scenes.md)")
     parser.add_argument("--tol", type=float, default=None, help="max lookup error (default: the scene's tolerance)")
     parser.add_argument("--json", action="store_true", help="print the plan as JSON")
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")

@@ -229,6 +229,29 @@ def _run(capsys, *argv):
     return code, out, err
 
 
+def test_toml_scene_is_the_json_scene():
+    from pathlib import Path
+
+    from bsdf_tab.scene import load_scene_file
+
+    root = Path(__file__).resolve().parents[1] / "examples"
+    assert parse_scene(load_scene_file(root / "scene.toml")) == parse_scene(load_scene_file(root / "scene.json"))
+
+
+def test_cli_plans_a_toml_scene_and_reports_bad_toml(tmp_path, capsys):
+    path = tmp_path / "scene.toml"
+    path.write_text('tolerance = 2e-3\n[[materials]]\nname = "steel"\ntype = "conductor"\n'
+                    'eta = 2.5\nk = 3.0\nalpha = 0.3\n')
+    code, out, err = _run(capsys, "plan", str(path), "-q")
+    assert code == 0 and "steel" in out, err
+    code, out, err = _run(capsys, "bake", str(path), "-q", "-o", str(tmp_path / "out"))
+    assert code == 0 and (tmp_path / "out" / "manifest.json").is_file(), err
+    path.write_text("materials = [\n")
+    for argv in (["plan", str(path)], ["bake", str(path), "-o", str(tmp_path / "o2")]):
+        code, out, err = _run(capsys, *argv)
+        assert code == 2 and len(err.strip().splitlines()) == 1 and "invalid TOML" in err, err
+
+
 def test_cli_plan_and_bake(tmp_path, capsys):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(TINY))
