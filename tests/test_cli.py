@@ -1,6 +1,5 @@
 """Tests of the bsdf-tab command line (run in-process through cli.main)."""
 
-import importlib.util
 import json
 import sys
 import types
@@ -12,8 +11,6 @@ from bsdf_tab import cli
 from bsdf_tab.exr import read_exr
 from bsdf_tab.spec import normalize_spec, resolve_axes, texel_count
 from bsdf_tab.table import Table
-
-HAVE_API = importlib.util.find_spec("bsdf_tab.api") is not None
 
 
 def hand_table(spec: dict) -> Table:
@@ -239,7 +236,6 @@ def test_bake_default_set_with_fake_api(tmp_path, capsys, fake_api):
 # --------------------------------------------------------------------------- bake (real api)
 
 
-@pytest.mark.skipif(not HAVE_API, reason="bsdf_tab.api (tabulate) is not written yet")
 def test_bake_tiny_spec_with_real_api(tmp_path, capsys):
     spec = tmp_path / "tiny.json"
     spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": [0.5, 1.0], "alpha": [0.2, 1.0]}, "tolerance": 1e-5}))

@@ -6,9 +6,8 @@ import math
 import numpy as np
 import pytest
 
+from tests import user_kernels as uk
 from tests.reference import microfacet_ref as ref
-
-uk = pytest.importorskip("tests.user_kernels")
 
 DISTS = {0: "ggx", 1: "beckmann"}
 SHADS = {0: "separable", 1: "correlated"}
