@@ -276,6 +276,37 @@ def test_eta_near_one(dist, shad):
             assert abs(v[j, 1] - rt.value) <= TOL, (t, v[j, 1], rt.value)
 
 
+def _lambda_exact(dist: int, mu: float, alpha: float) -> float:
+    """Smith Lambda in closed form, in a cancellation-free way for tiny alpha tan (a = 1 / (alpha tan))."""
+    if mu <= 0.0:
+        return math.inf
+    tan = math.sqrt(max(0.0, 1.0 - mu * mu)) / mu
+    x = alpha * tan
+    if dist == 0:  # GGX: (-1 + sqrt(1 + x^2)) / 2 = x^2 / (2 (1 + sqrt(1 + x^2)))
+        return x * x / (2.0 * (1.0 + math.sqrt(1.0 + x * x)))
+    a = 1.0 / x  # Beckmann: (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi))
+    return (-math.erfc(a) + math.exp(-a * a) / (a * math.sqrt(math.pi))) / 2.0
+
+
+@pytest.mark.parametrize("dist,shad", COMBOS)
+def test_eta_one_near_mirror_and_grazing(dist, shad):
+    """eta = 1 with alpha down to 1e-9 and mu ~ alpha (and mu = 0): T = G(i, -i) / G1(i) in closed
+    form. The refracted cosine 1 - (1 - c^2) / eta^2 used to round to 0 for i.m < 1e-8, dropping
+    that part of the transmission (4e-4 low at mu = alpha = 1e-7 with a 3e-7 error estimate)."""
+    pts = [(s * k, s) for s in (1e-9, 1e-7, 1e-6, 1e-5) for k in (0.0, 0.3, 1.0, 3.0)]
+    mu = np.array([p[0] for p in pts])
+    alpha = np.array([p[1] for p in pts])
+    v, e = integrate_texels("dielectric", mu, alpha, np.ones_like(mu), dist=dist, shadowing=shad)
+    for j, (m, a) in enumerate(pts):
+        lam = _lambda_exact(dist, m, a)
+        if shad == 0:
+            t_exact = 0.0 if math.isinf(lam) else 1.0 / (1.0 + lam)
+        else:
+            t_exact = 0.5 if math.isinf(lam) else (1.0 + lam) / (1.0 + 2.0 * lam)
+        assert v[j, 0] == 0.0
+        assert abs(v[j, 1] - t_exact) <= min(TOL, e[j, 1] + 1e-9), (m, a, v[j, 1], t_exact, e[j, 1])
+
+
 @pytest.mark.parametrize("dist,shad", COMBOS)
 def test_total_internal_reflection(dist, shad):
     """eta < 1, mu below the critical cosine sqrt(1 - eta^2): T ~ 0, R = 1 - shadowing loss;

@@ -20,6 +20,7 @@ import warp as wp
 
 from ..model.distribution import D, lambda_cos
 from ..model.fresnel import fresnel, fresnel_dielectric
+from ..model.frame import refract_k2
 from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
 
 MODE_REFLECT = wp.constant(0)
@@ -113,11 +114,11 @@ def m_terms(p: Tex, m: wp.vec3d):
         else:
             out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
     if p.mode == MODE_DIELECTRIC:
-        k2 = one - (one - c * c) / (p.eta * p.eta)
+        k2 = refract_k2(c, p.eta)
         if k2 > zero:
             # refracted o_t = (c/eta - sqrt(k2)) m - i/eta; the coefficient rationalized so that
             # its sign is exact near eta = 1
-            d = (one / (p.eta * p.eta) - one) / (c / p.eta + wp.sqrt(k2))
+            d = (one - p.eta) * (one + p.eta) / (p.eta * p.eta) / (c / p.eta + wp.sqrt(k2))
             zt = d * cm - p.mu / p.eta
             g = zero
             if zt < zero:

@@ -46,7 +46,7 @@ import warp as wp
 
 from ..model.distribution import BECKMANN, lambda_cos
 from ..model.fresnel import fresnel, fresnel_dielectric
-from ..model.frame import expm1_, log1p_
+from ..model.frame import expm1_, log1p_, refract_k2
 from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
 
 # integrand families
@@ -157,11 +157,11 @@ def _integrand(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, p
         else:
             out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
     if p.mode == MODE_DIELECTRIC:
-        k2 = one - (one - c * c) / (p.eta * p.eta)
+        k2 = refract_k2(c, p.eta)
         if k2 > zero:
             # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta, with c/eta - sqrt(k2)
             # rationalized so that its sign is exact near eta = 1 (it is 0 at eta = 1)
-            d = (one / (p.eta * p.eta) - one) / (c / p.eta + wp.sqrt(k2))
+            d = (one - p.eta) * (one + p.eta) / (p.eta * p.eta) / (c / p.eta + wp.sqrt(k2))
             zt = d * cm - p.mu / p.eta
             g = zero
             if zt < zero:

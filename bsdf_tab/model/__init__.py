@@ -12,7 +12,7 @@ the surface, ``alpha`` is Walter's width parameter (alpha_g for GGX, alpha_b for
 No I/O happens in this package: it is importable into any user's kernel module.
 """
 
-from .frame import cos_theta, sin2_theta, tan2_theta, reflect, refract, expm1_, log1p_
+from .frame import cos_theta, sin2_theta, tan2_theta, reflect, refract, refract_k2, expm1_, log1p_
 from .ggx import ggx_D, ggx_lambda, ggx_lambda_cos, ggx_sample_vndf
 from .beckmann import beckmann_D, beckmann_lambda, beckmann_lambda_cos, beckmann_sample_vndf
 from .distribution import (

@@ -32,6 +32,16 @@ def reflect(w: Any, m: Any):
 
 
 @wp.func
+def refract_k2(c: Any, eta: Any):
+    """cos^2 of the refracted angle, 1 - (1 - c^2) / eta^2, as (c^2 + (eta - 1)(eta + 1)) / eta^2.
+
+    Written without the cancellation of ``1 - (1 - c^2)``: at eta = 1 it is c^2 exactly, also for
+    grazing c < 1e-8 where the plain form rounds to 0 and loses the transmission.
+    """
+    return (c * c + (eta - type(eta)(1.0)) * (eta + type(eta)(1.0))) / (eta * eta)
+
+
+@wp.func
 def refract(w: Any, m: Any, eta: Any):
     """Refract ``w`` through the micro-normal ``m`` (Walter eq. 40).
 
@@ -41,7 +51,7 @@ def refract(w: Any, m: Any, eta: Any):
     """
     one = type(eta)(1.0)
     c = wp.dot(w, m)
-    k2 = one - (one - c * c) / (eta * eta)
+    k2 = refract_k2(c, eta)
     if k2 < type(eta)(0.0):
         # total internal reflection: no refracted direction
         return False, w * type(eta)(0.0)

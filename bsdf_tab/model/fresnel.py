@@ -34,7 +34,7 @@ def fresnel_dielectric(cos_i: Any, eta: Any):
         # no interface: nothing is reflected, also at grazing where g = c = 0
         return zero
     c = wp.min(wp.abs(cos_i), one)
-    g2 = eta * eta - one + c * c
+    g2 = (eta - one) * (eta + one) + c * c  # no cancellation near eta = 1
     if g2 <= zero:
         # total internal reflection (g2 = 0 is the critical angle, where F = 1 too)
         return one
