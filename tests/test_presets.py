@@ -246,7 +246,7 @@ def test_cli_presets_lists_all(capsys):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["bake", "--preset", "nope"], "unknown preset 'nope'"),
-    (["bake", "--format", "npy"], "--format applies to --preset"),
+    (["bake", "--format", "npy"], "--format applies to a spec file or --preset"),
     (["bake", "spec.json", "--preset", "cycles-ggx-E"], "either a spec file or --preset"),
 ])
 def test_cli_preset_errors_one_line_exit_2(capsys, tmp_path, argv, fragment):
