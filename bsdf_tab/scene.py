@@ -357,7 +357,9 @@ class ScenePlan:
 
     @property
     def fixed_error(self) -> float:
-        return max(t.fixed_error for t in self.tables)
+        """Largest fixed-size error (nan when a table's comparison was not computed)."""
+        errs = [t.fixed_error for t in self.tables]
+        return math.nan if any(math.isnan(e) for e in errs) else max(errs)
 
     def to_dict(self) -> dict:
         return {
@@ -366,7 +368,7 @@ class ScenePlan:
             "bytes": self.bytes,
             "fixed_bytes": self.fixed_bytes,
             "max_error": self.max_error,
-            "fixed_max_error": self.fixed_error,
+            "fixed_max_error": _finite_or_none(self.fixed_error),
             "tables": [
                 {
                     "file": t.file,
@@ -381,7 +383,7 @@ class ScenePlan:
                     "max_error": t.max_error,
                     "integration_tolerance": t.tolerance,
                     "fixed_alternative": {"shape": list(FIXED_SIZES[t.kind]), "bytes": t.fixed_bytes,
-                                          "max_error": t.fixed_error,
+                                          "max_error": _finite_or_none(t.fixed_error),
                                           "axes": [a.describe() for a in t.fixed_axes()]},
                     "materials": list(t.materials),
                     "spec": t.spec(),
@@ -403,7 +405,7 @@ class ScenePlan:
             lines.append(
                 f"  {t.file}: {t.kind} {t.distribution}/{t.shadowing} -> {','.join(t.channels)}; {axes}; "
                 f"{t.bytes} bytes; max error {t.max_error:.3g}; fixed {fixed}: {t.fixed_bytes} bytes, "
-                f"max error {t.fixed_error:.3g}; "
+                f"max error {_err_text(t.fixed_error)}; "
                 f"materials: {', '.join(t.materials)}"
             )
         saved = self.fixed_bytes - self.bytes
@@ -411,12 +413,22 @@ class ScenePlan:
         lines.append(
             f"total: {self.bytes} bytes (fixed-size alternative {self.fixed_bytes} bytes; saved {saved} bytes, "
             f"{pct:.1f}%); max lookup error {self.max_error:.3g} <= tol {self.tolerance:g} "
-            f"(fixed-size alternative: {self.fixed_error:.3g} at the same points)"
+            + (f"(fixed-size alternative: {self.fixed_error:.3g} at the same points)" if not math.isnan(self.fixed_error)
+               else "(fixed-size alternative's error not computed: above the texel limit)")
         )
         return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+def _finite_or_none(x: float) -> float | None:
+    """JSON has no nan: a comparison that was not computed is null."""
+    return None if math.isnan(x) else x
+
+
+def _err_text(x: float) -> str:
+    return "not computed (above the texel limit)" if math.isnan(x) else f"{x:.3g}"
 
 
 def _spaced(rng, spacing: str, n: int) -> np.ndarray:
@@ -693,6 +705,8 @@ def _plan_table(plan: TablePlan, spacings: list[str], tol: float, interpolation:
     meta["max_error"] = table.max_error()
     meta["lookup_max_error"] = err
     plan.table = table
+    if cache.max_texels is not None and int(np.prod(FIXED_SIZES[plan.kind])) > cache.max_texels:
+        return  # the comparison would itself exceed the caller's texel limit: fixed_error stays nan
     plan.fixed_error = _fixed_error(plan, fine, interpolation, cache)
     if log is not None:
         log(f"{plan.file}: fixed-size alternative {' x '.join(map(str, FIXED_SIZES[plan.kind]))}: "

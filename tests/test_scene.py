@@ -349,6 +349,9 @@ def test_plan_within_a_texel_budget_is_still_verified():
     plan = plan_scene(TINY, 2e-3, max_texels=64)
     (t,) = plan.tables
     assert int(np.prod(t.shape)) <= 64 and plan.max_error <= 2e-3
+    # the 32 x 32 comparison would exceed the budget itself: not computed, null in JSON
+    assert np.isnan(t.fixed_error) and plan.to_dict()["fixed_max_error"] is None
+    assert "not computed" in plan.text()
     with pytest.raises(SpecError) as exc:
         plan_scene(TINY, 1e-6, max_texels=4)
     assert exc.value.param == "tolerance" and type(exc.value).__name__ == "TexelLimitError"
