@@ -228,8 +228,10 @@ def _bake_default_set(args: argparse.Namespace) -> int:
             start = bar.n
             bar.set_postfix_str(name, refresh=False)
 
-            def advance(done, total, start=start):
-                bar.update(max(0, start + int(done) - bar.n))
+            def advance(done, total, start=start, n=texel_count(spec)):
+                # the callback counts the integrator's own work items (the *_avg tables integrate
+                # several mu per texel): scale them onto this table's share of the bar
+                bar.update(max(0, start + int(n * done / total if total else 0) - bar.n))
 
             table = tabulate(spec, device=args.device, workers=args.workers, progress=advance)
             bar.update(start + texel_count(spec) - bar.n)

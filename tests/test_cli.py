@@ -293,3 +293,45 @@ def test_bench_accuracy_rejects_bad_options_before_running(tmp_path, capsys, arg
     code, out, err = run(capsys, "bench", "accuracy", "--quick", "-o", str(tmp_path), *argv)
     assert_one_line_error(code, err, fragment)
     assert not any(tmp_path.iterdir())  # nothing ran
+
+
+def test_default_set_progress_never_goes_backwards(tmp_path, capsys, monkeypatch):
+    """The integrator may report more work items than texels (mu-averaged tables): the bar is
+    scaled to the table's share and only moves forward."""
+    updates = []
+
+    class Bar:
+        n = 0
+
+        def __init__(self, total, quiet):
+            self.total = total
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def update(self, k):
+            updates.append(k)
+            self.n += k
+
+        def set_postfix_str(self, *a, **k):
+            pass
+
+        def write(self, *a, **k):
+            pass
+
+    def tabulate(spec, *, device=None, workers=None, progress=False):
+        n = texel_count(spec)
+        for done in (n, 2 * n, 3 * n):  # three work items per texel
+            progress(done, 3 * n)
+        return hand_table(spec)
+
+    module = types.ModuleType("bsdf_tab.api")
+    module.tabulate = tabulate
+    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    monkeypatch.setattr(cli, "_progress_bar", Bar)
+    assert run(capsys, "bake", "-o", str(tmp_path / "luts"))[0] == 0
+    assert updates and min(updates) >= 0
+    assert sum(updates) == sum(texel_count(normalize_spec(s)) for _, s in cli.default_specs())
