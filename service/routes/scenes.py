@@ -28,7 +28,7 @@ from fastapi.responses import Response
 
 from bsdf_tab import __version__
 from bsdf_tab.errors import SpecError
-from bsdf_tab.scene import check_tol, is_scene, parse_scene, plan_scene
+from bsdf_tab.scene import check_lookup_tol, is_scene, parse_scene, plan_scene
 from bsdf_tab.table import json_default
 
 from ..cache import table_key
@@ -47,7 +47,7 @@ def _tol(extra: dict) -> float | None:
         tol = float(extra["tol"])
     except ValueError:
         raise SpecError("tol", f"must be a number, got {extra['tol'][:40]!r}") from None
-    return check_tol(tol, "tol")  # rejects nan/inf before they reach the cache key
+    return check_lookup_tol(tol, "tol")  # rejects nan/inf before they reach the cache key
 
 
 def scene_key(parsed: dict, tol: float | None) -> str:
@@ -58,11 +58,8 @@ def scene_key(parsed: dict, tol: float | None) -> str:
 
 
 def _plan(scene: dict, tol, settings) -> dict:
-    from bsdf_tab.api import tabulate
-
     # candidates above the texel limit are skipped before computing; none left -> 413
-    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, tabulate=tabulate,
-                      max_texels=settings.max_texels)
+    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, max_texels=settings.max_texels)
     tables = {}
     for t in plan.tables:
         data = t.table.to_exr_bytes()
