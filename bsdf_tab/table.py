@@ -4,29 +4,26 @@ A table of a kind with axes ``(a0, a1, ...)`` holds, for each value channel
 ``X`` (for example ``E``), an array ``channels["X"]`` of shape
 ``(len(a0), len(a1), ...)`` and, normally, an error channel ``X_err`` of the
 same shape: the estimated absolute integration error of each texel.
+
+No format code lives here: reading and writing are :mod:`bsdf_tab.io`'s, and the methods
+below (:meth:`Table.write`, :meth:`Table.read`, :meth:`Table.write_exr`, ...) delegate to it.
 """
 
 from __future__ import annotations
 
-import io
-import json
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Table", "ERR_SUFFIX", "json_default"]
+from . import io as formats
+from .io import exr as _exr_format
+from .io import json as _json_format
+from .io import npz as _npz_format
+from .io.base import ERR_SUFFIX, json_default, max_error, value_channels
 
-ERR_SUFFIX = "_err"
-
-
-def json_default(obj: Any) -> Any:
-    """``json.dumps`` hook that turns NumPy scalars and arrays into Python values."""
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+__all__ = ["Table", "ERR_SUFFIX", "json_default", "read_exr", "write_exr"]
 
 
 def _as_axis(name: Any, values: Any) -> np.ndarray:
@@ -92,7 +89,7 @@ class Table:
     @property
     def value_channels(self) -> list[str]:
         """Names of the value channels (those not ending in ``_err``), in order."""
-        return [name for name in self.channels if not name.endswith(ERR_SUFFIX)]
+        return value_channels(self.channels)
 
     @property
     def error_channels(self) -> list[str]:
@@ -114,75 +111,90 @@ class Table:
             Value channel name (``"E"``, not ``"E_err"``) -> max of its
             error channel. NaN errors propagate (a NaN result means a bad texel).
         """
-        out = {}
-        for name in self.value_channels:
-            err = self.channels.get(name + ERR_SUFFIX)
-            if err is not None:
-                out[name] = float(np.max(err))
-        return out
+        return max_error(self.channels)
+
+    # ------------------------------------------------------------------ formats (bsdf_tab.io)
+
+    def write(self, path, fmt: str | None = None) -> list[Path]:
+        """Write the table atomically as ``fmt`` or as the ending of ``path`` says.
+
+        See :func:`bsdf_tab.io.write` (formats: :mod:`bsdf_tab.io`). Returns the files written.
+        """
+        return formats.write(self, path, fmt)
+
+    @classmethod
+    def read(cls, path, fmt: str | None = None) -> "Table":
+        """Read a table file (format from its ending unless ``fmt``); see :func:`bsdf_tab.io.read`."""
+        return formats.read(path, fmt, factory=cls)
+
+    def to_bytes(self, fmt: str) -> bytes:
+        """The bytes of the ``fmt`` file of the table (see :func:`bsdf_tab.io.to_bytes`)."""
+        return formats.to_bytes(self, fmt)
+
+    @classmethod
+    def from_bytes(cls, data: bytes, fmt: str) -> "Table":
+        """The table held by the bytes of a ``fmt`` file (see :func:`bsdf_tab.io.from_bytes`)."""
+        return formats.from_bytes(data, fmt, factory=cls)
 
     def write_exr(self, path) -> None:
-        """Write the table to an OpenEXR file (see :mod:`bsdf_tab.exr`)."""
-        from .exr import write_exr
-
-        write_exr(self, path)
+        """Write the table to an OpenEXR file (see :mod:`bsdf_tab.io.exr`)."""
+        _exr_format.write_exr(self, path)
 
     def to_exr_bytes(self) -> bytes:
         """The table as the bytes of an OpenEXR file."""
-        from .exr import exr_bytes
-
-        return exr_bytes(self)
+        return _exr_format.exr_bytes(self)
 
     def to_npz_bytes(self) -> bytes:
         """The table as the bytes of a NumPy ``.npz`` archive (no pickles).
 
         Keys: ``axis_order`` (array of names), ``axis/<name>`` (float64),
-        ``channel/<name>`` and ``meta`` (a JSON string). Read it back with
-        :meth:`from_npz_bytes`.
+        ``channel/<name>``, ``channel_order`` and ``meta`` (a JSON string); see
+        :mod:`bsdf_tab.io.npz`. Read it back with :meth:`from_npz_bytes`.
         """
-        arrays = {"axis_order": np.array(list(self.axes), dtype=str)}
-        arrays.update({f"axis/{n}": a for n, a in self.axes.items()})
-        arrays.update({f"channel/{n}": c for n, c in self.channels.items()})
-        arrays["channel_order"] = np.array(list(self.channels), dtype=str)
-        arrays["meta"] = np.array(json.dumps(self.meta, default=json_default))
-        buf = io.BytesIO()
-        np.savez_compressed(buf, **arrays)
-        return buf.getvalue()
+        return _npz_format.npz_bytes(self)
 
     @classmethod
     def from_npz_bytes(cls, data: bytes) -> "Table":
         """Inverse of :meth:`to_npz_bytes`."""
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            axes = {str(n): npz[f"axis/{n}"] for n in npz["axis_order"]}
-            channels = {str(n): npz[f"channel/{n}"] for n in npz["channel_order"]}
-            meta = json.loads(str(npz["meta"]))
-        return cls(axes, channels, meta)
+        return _npz_format.npz_from_bytes(data, cls)
 
     def to_json_dict(self) -> dict:
-        """The table as a JSON-serializable dict.
+        """The table as a JSON-serializable dict (see :mod:`bsdf_tab.io.json`).
 
         Returns
         -------
         dict
             ``{"axes": {name: [...]}, "shape": [...], "channels": {name:
             nested lists}, "meta": {...}}``; axes and channels keep their
-            order. Non-finite channel values become ``None``.
+            order. Non-finite values become ``None``.
         """
-        return {
-            "axes": {n: a.tolist() for n, a in self.axes.items()},
-            "shape": list(self.shape),
-            "channels": {n: _finite_or_none(c) for n, c in self.channels.items()},
-            "meta": json.loads(json.dumps(self.meta, default=json_default)),
-        }
+        return _json_format.to_json_dict(self)
 
     def __repr__(self) -> str:
         axes = " x ".join(f"{n}[{len(a)}]" for n, a in self.axes.items())
         return f"Table({self.kind or 'table'}: {axes}; channels {', '.join(self.channels)})"
 
 
-def _finite_or_none(values: np.ndarray) -> list:
-    if np.isfinite(values).all():
-        return values.tolist()
-    obj = values.astype(object)
-    obj[~np.isfinite(values)] = None
-    return obj.tolist()
+
+def read_exr(path) -> Table:
+    """Read a table written by :func:`write_exr` (or the half-float writer).
+
+    Returns
+    -------
+    Table
+        Axes as float64 exactly as written, channels as float32 arrays shaped by the
+        axes, meta from the JSON header (see :func:`bsdf_tab.io.exr.read_exr`).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file is not an OpenEXR file or not a bsdf-tab table.
+    """
+    return _exr_format.read_exr(path, Table)
+
+
+def write_exr(table, path) -> None:
+    """Write ``table`` to the OpenEXR file ``path`` atomically (see :mod:`bsdf_tab.io.exr`)."""
+    _exr_format.write_exr(table, path)

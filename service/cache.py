@@ -18,9 +18,10 @@ Every entry file is one header line and the payload::
 mismatch (truncated, bit-flipped, half-written, foreign file) counts as a miss, the file is
 deleted and the caller recomputes. A corrupt file is never served.
 
-Writes are atomic: the entry is written to a unique temporary file in the same folder,
-flushed and fsync'ed, then ``os.replace``-d onto its name; readers see the old file or the
-new one, never a partial one. Left-over temporaries (a crash mid-write) are removed at start-up.
+Writes are atomic (:mod:`bsdf_tab.io.atomic`, the library's one atomic write): the entry is
+written to a unique temporary file in the same folder, flushed and fsync'ed, then
+``os.replace``-d onto its name; readers see the old file or the new one, never a partial one.
+Left-over temporaries (a crash mid-write) are removed at start-up.
 
 Size cap
 --------
@@ -48,12 +49,14 @@ from collections import OrderedDict
 from pathlib import Path
 from typing import Awaitable, Callable, TypeVar
 
+from bsdf_tab.io.atomic import TMP_SUFFIX, write_bytes
+
 __all__ = ["DiskCache", "SingleFlight", "table_key", "MAGIC"]
 
 MAGIC = b"BSDFTAB-CACHE 1 "
 _HEADER_MAX = len(MAGIC) + 64 + 1 + 20 + 1
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,200}$")
-_TMP_SUFFIX = ".tmp"
+_TMP_SUFFIX = TMP_SUFFIX  # what a write that never finished leaves: ".<name>.<pid>.<hex>.tmp"
 
 T = TypeVar("T")
 
@@ -177,16 +180,7 @@ class DiskCache:
         data = _encode(payload)
         if self.max_bytes <= 0 or len(data) > self.max_bytes:
             return
-        path = self._path(name)
-        tmp = self.folder / f".{name}.{os.getpid()}.{uuid.uuid4().hex}{_TMP_SUFFIX}"
-        try:
-            with open(tmp, "wb") as fh:
-                fh.write(data)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        finally:
-            _unlink(tmp)
+        write_bytes(self._path(name), data)  # temp file in the folder, fsync, os.replace
         with self._lock:
             self._forget(name)
             index[name] = len(data)

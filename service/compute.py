@@ -21,7 +21,6 @@
 from __future__ import annotations
 
 import asyncio
-import io
 import json
 import logging
 import threading
@@ -35,7 +34,10 @@ from bsdf_tab import __version__
 from bsdf_tab.api import tabulate  # noqa: F401  (monkeypatch point)
 from bsdf_tab.errors import SpecError
 from bsdf_tab.spec import normalize_spec, resolve_axes, spec_hash, texel_count
-from bsdf_tab.table import Table, json_default
+import bsdf_tab.io as bsdf_io
+from bsdf_tab.io import json_default
+from bsdf_tab.io.json import finite_json
+from bsdf_tab.table import Table
 
 from .cache import DiskCache, SingleFlight, table_key
 from .errors import ServiceError
@@ -231,33 +233,32 @@ class TableStore:
 
 
 # ---------------------------------------------------------------------- representations
+# The file formats are bsdf_tab.io's (one meaning per name, the same bytes as the CLI writes);
+# ``info`` is the service's own summary.
 
 
 def to_exr(table: Table) -> bytes:
-    return table.to_exr_bytes()
+    """The float32 EXR file (:mod:`bsdf_tab.io.exr`)."""
+    return bsdf_io.to_bytes(table, "exr")
 
 
 def to_npy(table: Table) -> bytes:
-    """A structured ``.npy`` array shaped by the axes, one float64 field per channel.
+    """One structured ``.npy`` array shaped by the axes, a float64 field per channel.
 
-    (``np.load(..., allow_pickle=False)`` reads it; axes are in the npz / JSON / EXR forms.)
+    (:mod:`bsdf_tab.io.npy`; ``np.load(..., allow_pickle=False)`` reads it; axes are in the
+    npz / JSON / EXR forms.)
     """
-    dtype = np.dtype([(name, "<f8") for name in table.channels])
-    arr = np.empty(table.shape, dtype=dtype)
-    for name, values in table.channels.items():
-        arr[name] = values
-    buf = io.BytesIO()
-    np.save(buf, arr, allow_pickle=False)
-    return buf.getvalue()
+    return bsdf_io.to_bytes(table, "npy")
 
 
 def to_json(table: Table) -> bytes:
-    return json.dumps(table.to_json_dict(), allow_nan=False, separators=(",", ":")).encode()
+    """The table as strict, compact JSON (:mod:`bsdf_tab.io.json`)."""
+    return bsdf_io.to_bytes(table, "json")
 
 
 def to_info(table: Table) -> bytes:
     """Metadata without the data: spec, conventions, method, max error, axes summary."""
-    meta = json.loads(json.dumps(table.meta, default=json_default))
+    meta = finite_json(json.loads(json.dumps(table.meta, default=json_default)))
     info = {
         "table": table.kind,
         "shape": list(table.shape),
@@ -274,4 +275,5 @@ def to_info(table: Table) -> bytes:
     return json.dumps(info, allow_nan=False).encode()
 
 
+#: variant -> how it is made from the master table (the master itself is ``MASTER``)
 _DERIVE = {"exr": to_exr, "npy": to_npy, "json": to_json, "info": to_info}

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from typing import Any, Iterable
 
+import bsdf_tab.io as bsdf_io
 from bsdf_tab import __version__
 from bsdf_tab.spec import (
     AXIS_DEFAULTS,
@@ -63,27 +64,16 @@ __all__ = [
     "KIND_KEYS",
 ]
 
+#: the formats served (their names, endings and media types are bsdf_tab.io's registry)
+FORMATS = ("exr", "npz", "npy", "json")
 #: format -> media type
-MEDIA_TYPES = {
-    "exr": "image/x-exr",
-    "npz": "application/x-npz",
-    "npy": "application/x-npy",
-    "json": "application/json",
-}
-FORMATS = tuple(MEDIA_TYPES)
+MEDIA_TYPES = bsdf_io.media_types(FORMATS)
 DEFAULT_FORMAT = "exr"
 
-#: Accept media types understood, -> format
+#: Accept media types understood, -> format: each format's own and alias types, and wildcards
 _ACCEPT = {
-    "image/x-exr": "exr",
-    "image/exr": "exr",
-    "image/aces": "exr",
-    "application/x-npz": "npz",
-    "application/zip": "npz",
-    "application/x-npy": "npy",
+    **bsdf_io.accept_types(FORMATS),
     "application/octet-stream": "exr",
-    "application/json": "json",
-    "text/json": "json",
     "*/*": DEFAULT_FORMAT,
     "image/*": "exr",
     "application/*": "npz",

@@ -1,0 +1,107 @@
+"""Reading and writing tables: one registry of formats, one atomic write, one streaming writer.
+
+Formats
+-------
+Every format has one name, used alike by the Python API, the CLI (``--format``), engine
+presets and the HTTP service (``format=``), and one meaning under that name:
+
+==============  ==============  ======================  =====================================
+name            file ending     media type              holds
+==============  ==============  ======================  =====================================
+``exr``         ``.exr``        ``image/x-exr``         float32 EXR, spec/axes/meta in the
+                                                        header; exact float32 round trip
+``half-exr``    ``.half.exr``   ``image/x-exr``         HALF EXR, rounding measured and added
+                                                        to the error channels
+``npz``         ``.npz``        ``application/x-npz``   axes, channels, meta; lossless
+``npy``         ``.npy``        ``application/x-npy``   ONE structured array, a float64 field
+                                                        per channel (no axes, no meta)
+``npy-channels`` ``.meta.json`` (none: several files)   one float32 ``.npy`` per channel, one
+                                                        float64 ``.npy`` per axis, a sidecar
+``json``        ``.json``       ``application/json``    axes, shape, channels (null for
+                                                        non-finite), meta
+``h``           ``.h``          ``text/x-c``            C99/C++ header of static arrays
+==============  ==============  ======================  =====================================
+
+``npy`` means one ``.npy`` file holding a structured array whose fields are the channels,
+everywhere (it was so in the service; the CLI and presets used the name for per-channel
+files). The per-channel layout, the way engines ship their tables (Cycles: one array per
+quantity), is ``npy-channels``; its set of files is named by its sidecar ``S.meta.json``.
+``npy`` and ``h`` are write-only: they hold no axes or metadata to read back.
+
+Python
+------
+>>> import bsdf_tab.io as bio
+>>> bio.write(table, "lut.half.exr")              # doctest: +SKIP   (format from the name)
+>>> bio.write(table, "luts/cycles", fmt="npy-channels")               # doctest: +SKIP
+>>> data = bio.to_bytes(table, "npy")             # doctest: +SKIP
+>>> parts = bio.read("lut.exr")                   # doctest: +SKIP   (axes, channels, meta)
+>>> table = bio.read("lut.exr", factory=bsdf_tab.Table)               # doctest: +SKIP
+>>> bio.format_for("lut.half.exr").name
+'half-exr'
+
+An unknown name or ending raises :class:`FormatError` (a :class:`~bsdf_tab.errors.SpecError`)
+naming it and what is known.
+
+Layering
+--------
+This package never imports :mod:`bsdf_tab.table`: writers take any object with ``axes``,
+``channels`` and ``meta``; readers return :class:`TableParts` or what ``factory`` builds.
+``bsdf_tab.table`` imports this package for ``Table.write_exr`` and friends.
+
+Modules: :mod:`~bsdf_tab.io.base` (the table-like protocol, :class:`Format`, JSON helpers),
+:mod:`~bsdf_tab.io.atomic`, one module per format (:mod:`~bsdf_tab.io.exr`,
+:mod:`~bsdf_tab.io.half_exr`, :mod:`~bsdf_tab.io.npz`, :mod:`~bsdf_tab.io.npy`,
+:mod:`~bsdf_tab.io.npy_channels`, :mod:`~bsdf_tab.io.json`, :mod:`~bsdf_tab.io.c_header`),
+:mod:`~bsdf_tab.io.registry`, and :mod:`~bsdf_tab.io.stream` (tables too large to hold).
+"""
+
+from .atomic import atomic_open, atomic_path, write_bytes, write_text
+from .base import ERR_SUFFIX, Format, FormatError, TableParts, json_default
+from .registry import (
+    FORMATS,
+    accept_types,
+    as_stored,
+    format_for,
+    format_for_media,
+    endings,
+    from_bytes,
+    get_format,
+    media_types,
+    names,
+    output_path,
+    read,
+    to_bytes,
+    write,
+)
+from .stream import STREAM_FORMATS, StreamedTable, can_stream, write_blocks, write_stream
+
+__all__ = [
+    "ERR_SUFFIX",
+    "FORMATS",
+    "Format",
+    "FormatError",
+    "STREAM_FORMATS",
+    "StreamedTable",
+    "TableParts",
+    "accept_types",
+    "as_stored",
+    "atomic_open",
+    "atomic_path",
+    "can_stream",
+    "endings",
+    "format_for",
+    "format_for_media",
+    "from_bytes",
+    "get_format",
+    "json_default",
+    "media_types",
+    "names",
+    "output_path",
+    "read",
+    "to_bytes",
+    "write",
+    "write_blocks",
+    "write_bytes",
+    "write_stream",
+    "write_text",
+]
