@@ -1,6 +1,7 @@
 """Compare bsdf-tab's engine presets with the tables the engines ship.
 
-Run: ``python bench/compare_peers.py [--device cpu] [--only NAME ...] [--reuse]``.
+Run: ``python bench/compare_peers.py [--device cpu] [--only NAME ...] [--reuse]`` (or
+``bsdf-tab bench compare_peers ...``).
 
 For every preset that has a peer table in the anchors folder (``../shared/anchors`` relative
 to the repository root, or ``$BSDF_TAB_ANCHORS``), bakes the preset at full size, loads the
@@ -34,6 +35,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "bench" / "out"
+if str(ROOT) not in sys.path:  # the checkout's bsdf_tab, as for bench/accuracy.py
+    sys.path.insert(0, str(ROOT))
 
 from bsdf_tab import normalize_spec  # noqa: E402
 from bsdf_tab.presets import PRESETS, build_preset  # noqa: E402
@@ -137,8 +140,10 @@ def compare(name: str, table: Table, theirs: np.ndarray, anchors: Path) -> dict:
     }
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Parse ``argv`` (default: ``sys.argv[1:]``; ``prog``: the name in the usage line), bake,
+    compare and report. ``bsdf-tab bench compare_peers`` calls it."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--device", default=None)
     parser.add_argument("--workers", type=int, default=None)
     parser.add_argument("--only", nargs="*", default=None, help="preset names (default: all with a peer table)")
@@ -183,7 +188,7 @@ def main(argv=None) -> int:
             skipped.append({"preset": name, "reason": "no peer table in the anchors (conventions only)"})
 
     print()
-    header = f"| preset | shape | max abs diff (at) | mean abs diff | interior max / mean | max theirs - ours | our max err |"
+    header = "| preset | shape | max abs diff (at) | mean abs diff | interior max / mean | max theirs - ours | our max err |"
     print(header)
     print("|" + "---|" * 7)
     for r in results:

@@ -1,6 +1,6 @@
 """The Mitsuba 3 peer's convention mapping, checked against the independent reference.
 
-Mitsuba's estimates (``bsdf_tab.benchmarks.mitsuba_peer.estimate``: ``roughconductor`` with
+Mitsuba's estimates (``bench.mitsuba_peer.estimate``: ``roughconductor`` with
 F = 1, ``roughdielectric`` in importance transport, both with separable shadowing) must agree
 with ``tests/reference`` within 5 standard errors at a few texels: GGX albedo, Beckmann albedo
 (up to Mitsuba's rational G1, see below), dielectric R and T for eta = 1.5 and 1/1.5.
@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bsdf_tab.benchmarks import mitsuba_peer as mp
+from bench import mitsuba_peer as mp
+from bench.mitsuba_run import texel_stats
 from tests.reference import microfacet_ref as ref
 
 N = 2**20  # samples per texel: standard errors ~1e-4 .. 3e-4
@@ -140,7 +141,7 @@ def test_texel_stats_definitions():
                           stderr=np.array([[0.01, 0.0], [0.01, 0.0], [0.0, 0.0]]),
                           wmax=np.ones(3), n_samples=1024)
     rv = np.array([[0.51, 0.0], [0.60, 0.0], [0.9001, 0.0]])
-    st = mp.texel_stats(1, est, rv, np.zeros((3, 2)))
+    st = texel_stats(1, est, rv, np.zeros((3, 2)))
     assert st["max_abs_err"] == pytest.approx(0.1)
     assert st["honesty"] == pytest.approx(2 / 3) and st["n_dishonest"] == 1
     assert st["within_3se"] == pytest.approx(1 / 3)  # the se = 0 texel misses by 1e-4
