@@ -1,26 +1,50 @@
-"""``tabulate(spec) -> Table``: the one path from a spec to a table (CLI and service use it)."""
+"""The only way to compute a table: :func:`tabulate` (whole tables) and :func:`iter_blocks`
+(tables too large to hold, in blocks of axis-0 slices).
+
+Both go spec -> :func:`bsdf_tab.spec.normalize_spec` -> the table registry
+(:mod:`bsdf_tab.tables`) -> the integrators and kernels, and record the same metadata
+(:func:`table_meta`). The CLI, the presets, the scene planner, the service and the benchmarks
+all call these two functions.
+"""
 
 from __future__ import annotations
 
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
 
-from . import __version__
+import numpy as np
+
 from .integrate.parallel import resolve_device
 from .spec import normalize_spec, resolve_axes
 from .table import Table
-from .tables import COMPUTE, Context
+from .tables import KINDS, Context
+from .version import __version__
+
+__all__ = ["BlockStream", "METHOD_TEXT", "conventions", "iter_blocks", "quiet_warp", "streams",
+           "table_meta", "tabulate"]
+
+ProgressArg = bool | Callable[[int, int], None]
 
 _SHADOWING_TEXT = {
     "separable": "separable G = G1(i) G1(o) (Walter 2007)",
     "correlated": "height-correlated G = 1 / (1 + Lambda(i) + Lambda(o)) (Heitz 2014)",
 }
-_METHOD_TEXT = {
+#: Method name -> the description recorded in every table's metadata.
+METHOD_TEXT = {
     "adaptive": "nested adaptive Gauss-Kronrod (G7-K15) over micro-normal space, split at the "
     "closed-form horizon / critical-angle curves; error = sum over accepted intervals of "
     "QUADPACK's rescaled |K15 - G7| (resasc * min(1, (200 |K15 - G7| / resasc)^1.5)) plus "
     "propagated inner errors",
     "point": "float64 point evaluation of the BSDF (Walter eqs. 20 and 21); error = rounding bound",
 }
+
+
+def quiet_warp() -> None:
+    """Keep Warp's start-up and module-load messages off stdout (the CLI and the service call it)."""
+    import warp
+
+    warp.config.log_level = getattr(warp, "LOG_WARNING", 30)  # Warp >= 1.1x: logging threshold
+    warp.config.quiet = True  # older Warp releases
 
 
 def conventions(nspec: dict) -> dict:
@@ -55,12 +79,52 @@ def conventions(nspec: dict) -> dict:
     return conv
 
 
+def table_meta(nspec: dict, max_error: dict[str, float]) -> dict:
+    """The metadata of a table of normalized spec ``nspec`` (the same for both paths)."""
+    return {
+        "table": nspec["table"],
+        "spec": nspec,
+        "conventions": conventions(nspec),
+        "method": {
+            "name": nspec["method"],
+            "tolerance": nspec["tolerance"],
+            "description": METHOD_TEXT.get(nspec["method"], nspec["method"]),
+            "precision": "float64 (stored as float32)",
+        },
+        "max_error": max_error,
+        "version": __version__,
+    }
+
+
+def _check_workers(workers: int | None) -> None:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be a positive integer (None: all cores), got {workers!r}")
+
+
+def _progress(progress: ProgressArg, desc: str):
+    """(callback or None, bar or None): True shows a tqdm bar on stderr."""
+    if callable(progress):
+        return progress, None
+    if progress is not True:
+        return None, None
+    from tqdm import tqdm
+
+    bar = tqdm(total=0, unit="texel", unit_scale=True, desc=desc, leave=False, dynamic_ncols=True)
+
+    def callback(done: int, total: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    return callback, bar
+
+
 def tabulate(
     spec: dict | str,
     *,
     device: str | None = None,
     workers: int | None = None,
-    progress: bool | Callable[[int, int], None] = False,
+    progress: ProgressArg = False,
 ) -> Table:
     """Compute the table described by ``spec``.
 
@@ -71,7 +135,7 @@ def tabulate(
     device : str, optional
         Warp device ("cpu", "cuda:0"); default CUDA when available, else the CPU.
     workers : int, optional
-        CPU worker threads (default: all cores this process may use).
+        CPU worker threads (default: all cores this process may use); must be >= 1.
     progress : bool or callable
         True shows a progress bar on stderr; a callable receives (done, total) texel counts.
 
@@ -85,39 +149,102 @@ def tabulate(
     ------
     SpecError
         If the spec is invalid (the message names the parameter).
+    ValueError
+        If ``device`` or ``workers`` is invalid.
     """
     nspec = normalize_spec(spec)
+    _check_workers(workers)
     axes = resolve_axes(nspec)
     dev = resolve_device(device)
-    bar = None
-    callback = progress if callable(progress) else None
-    if progress is True:
-        from tqdm import tqdm
-
-        bar = tqdm(total=0, unit="texel", desc=nspec["table"], leave=False, dynamic_ncols=True)
-
-        def callback(done: int, total: int) -> None:
-            bar.total = total
-            bar.n = done
-            bar.refresh()
-
+    callback, bar = _progress(progress, nspec["table"])
     try:
-        channels = COMPUTE[nspec["table"]](nspec, axes, Context(dev, workers, callback))
+        channels = KINDS[nspec["table"]]["compute"](nspec, axes, Context(dev, workers, callback))
     finally:
         if bar is not None:
             bar.close()
     table = Table(axes=axes, channels=channels, meta={})
-    table.meta = {
-        "table": nspec["table"],
-        "spec": nspec,
-        "conventions": conventions(nspec),
-        "method": {
-            "name": nspec["method"],
-            "tolerance": nspec["tolerance"],
-            "description": _METHOD_TEXT.get(nspec["method"], nspec["method"]),
-            "precision": "float64 (stored as float32)",
-        },
-        "max_error": table.max_error(),
-        "version": __version__,
-    }
+    table.meta = table_meta(nspec, table.max_error())
     return table
+
+
+def streams(spec: dict | str) -> bool:
+    """Whether the kind of ``spec`` is computed in blocks (so :func:`iter_blocks` bounds memory)."""
+    return "blocks" in KINDS[normalize_spec(spec)["table"]]
+
+
+@dataclass
+class BlockStream:
+    """A table computed block by block: iterate for ``(start, end, channels)``.
+
+    Each block holds the axis-0 slices ``start:end`` of every channel (values and ``_err``),
+    float64, shaped ``(end - start,) + shape[1:]``. After the iteration, :meth:`meta` is the
+    metadata :func:`tabulate` would have recorded (its ``max_error`` taken over all blocks).
+    """
+
+    nspec: dict
+    axes: dict[str, np.ndarray]
+    channel_names: list[str]
+    _blocks: Iterator = field(repr=False)
+    _max_error: dict[str, float] = field(default_factory=dict, repr=False)
+    _done: bool = field(default=False, repr=False)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(a) for a in self.axes.values())
+
+    def __iter__(self):
+        for start, end, channels in self._blocks:
+            for name, values in channels.items():
+                if name.endswith("_err"):
+                    block_max = float(np.max(values)) if values.size else 0.0
+                    key = name[: -len("_err")]
+                    self._max_error[key] = max(self._max_error.get(key, 0.0), block_max)
+            yield start, end, channels
+        self._done = True
+
+    def meta(self) -> dict:
+        """The table's metadata; only complete once every block was produced."""
+        if not self._done:
+            raise RuntimeError("BlockStream.meta(): iterate over every block first")
+        return table_meta(self.nspec, dict(self._max_error))
+
+
+def iter_blocks(
+    spec: dict | str,
+    *,
+    device: str | None = None,
+    workers: int | None = None,
+    progress: ProgressArg = False,
+    block_texels: int | None = None,
+) -> BlockStream:
+    """The table of ``spec`` as a stream of blocks of axis-0 slices (bounded memory).
+
+    Kinds computed in blocks (:func:`streams`) yield about ``block_texels`` texels per block;
+    the others yield the whole table as one block. The values are those of :func:`tabulate`
+    bit for bit. Parameters as for :func:`tabulate`.
+    """
+    nspec = normalize_spec(spec)
+    _check_workers(workers)
+    if block_texels is not None and (isinstance(block_texels, bool) or not isinstance(block_texels, int)
+                                     or block_texels < 1):
+        raise ValueError(f"block_texels must be a positive integer, got {block_texels!r}")
+    axes = resolve_axes(nspec)
+    dev = resolve_device(device)
+    kind = KINDS[nspec["table"]]
+    names = list(kind["channels"]) + [f"{c}_err" for c in kind["channels"]]
+
+    def generate():
+        callback, bar = _progress(progress, nspec["table"])
+        ctx = Context(dev, workers, callback)
+        try:
+            if "blocks" in kind:
+                extra = {} if block_texels is None else {"block_texels": block_texels}
+                yield from kind["blocks"](nspec, axes, ctx, **extra)
+            else:
+                channels = kind["compute"](nspec, axes, ctx)
+                yield 0, len(next(iter(axes.values()))), channels
+        finally:
+            if bar is not None:
+                bar.close()
+
+    return BlockStream(nspec=nspec, axes=axes, channel_names=names, _blocks=generate())

@@ -1,24 +1,33 @@
-"""The table catalog: one compute function per table kind, and the registry that maps names to them.
+"""The table catalog: one module per table kind, each declaring its kinds in ``KINDS``.
 
-A compute function takes the normalized spec, the resolved axes and a :class:`Context`, and
-returns the table's channels (values and ``<X>_err`` error channels) shaped by the axes.
-Adding a table kind: a module here, one line in :data:`COMPUTE`, one entry in
-:data:`bsdf_tab.spec.TABLE_KINDS`.
+A kind's entry: ``axes`` (axis slots in table order; ``"alpha"`` stands for the roughness slot,
+``alpha`` or ``roughness``), ``channels`` (value channels; each also gets ``<X>_err``),
+``fresnel`` (``"any"``: a fresnel parameter, ``"axis"``: dielectric with eta from the ``eta``
+axis, ``"one"``: Fresnel-independent), ``description``, and the functions: ``compute(nspec,
+axes, ctx) -> channels`` and, for kinds computed in blocks of axis-0 slices (tables too large to
+hold), ``blocks(nspec, axes, ctx, block_texels)``. Optional: ``methods`` (the only methods the
+kind accepts), ``params`` (kind-only top-level keys) and ``parametrizations`` (name -> axis
+slots). :mod:`bsdf_tab.spec` validates against :data:`CATALOG`; :mod:`bsdf_tab.api` is the only
+caller of the functions.
+
+Adding a table kind: a module here with its ``KINDS``, and its name in :data:`_MODULES`.
 """
 
 from __future__ import annotations
 
-from . import albedo, bsdf, dielectric, dfg, multiscatter
+from . import albedo, bsdf, dfg, dielectric, multiscatter
 from ._common import Context
 
-COMPUTE = {
-    "albedo": albedo.compute,
-    "albedo_avg": albedo.compute_avg,
-    "dielectric": dielectric.compute,
-    "dielectric_avg": dielectric.compute_avg,
-    "dfg": dfg.compute,
-    "bsdf": bsdf.compute,
-    "kulla_conty": multiscatter.compute,
+_MODULES = (albedo, dielectric, dfg, bsdf, multiscatter)
+
+#: Kind name -> its entry (with the functions).
+KINDS: dict[str, dict] = {name: info for module in _MODULES for name, info in module.KINDS.items()}
+
+_FUNCTIONS = ("compute", "blocks")
+
+#: Kind name -> its entry without the functions: what the spec, the service catalog and docs read.
+CATALOG: dict[str, dict] = {
+    name: {k: v for k, v in info.items() if k not in _FUNCTIONS} for name, info in KINDS.items()
 }
 
-__all__ = ["COMPUTE", "Context"]
+__all__ = ["CATALOG", "KINDS", "Context"]

@@ -19,7 +19,7 @@ from ..model import (
     GGX,
     SEPARABLE,
 )
-from ..spec import alpha_values
+from ..axes import alpha_values
 
 _DIST = {"ggx": GGX, "beckmann": BECKMANN}
 _SHADOWING = {"separable": SEPARABLE, "correlated": CORRELATED}

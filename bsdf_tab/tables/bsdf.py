@@ -32,29 +32,21 @@ for transmission by 2x the relative error of the denominator (i.h) + eta (o.h) (
 and by the cancellation in 1 - F near total internal reflection ((16 + amp/g) / (1 - F)).
 Stored EXR channels are float32 (relative rounding 2^-24 on top).
 
-Memory: :func:`bake_bsdf_streaming` computes blocks of theta slices (axis 0) and writes them
-through a memory-mapped temporary file to EXR (scanline by scanline) or ``.npz``, so a
-full-size grid needs memory for one block only.
+Memory: :func:`blocks` computes blocks of axis-0 slices; ``bsdf_tab.api.iter_blocks`` hands
+them to a streaming writer of :mod:`bsdf_tab.io`, so a full-size grid needs memory for one block
+only.
 """
 
 from __future__ import annotations
 
-import math
-import os
-import uuid
-import zipfile
-from pathlib import Path
-from typing import Callable
-
 import numpy as np
 import warp as wp
 
-from ..integrate.parallel import default_workers, resolve_device, run_chunks
+from ..integrate.parallel import default_workers, run_chunks
 from ..model import BECKMANN, FRESNEL_DIELECTRIC, brdf, btdf, fresnel_dielectric
-from ..spec import normalize_spec, resolve_axes
 from ._common import Context, integrator_params
 
-__all__ = ["compute", "bake_bsdf_streaming", "material_alpha", "directions", "EPS_REL", "StreamedTable"]
+__all__ = ["CHANNELS", "EPS_REL", "KINDS", "blocks", "compute", "material_alpha"]
 
 CHANNELS = ("f_r", "f_t", "f_r_err", "f_t_err")
 PARAM_ANGLES = wp.constant(0)
@@ -184,42 +176,19 @@ def material_alpha(nspec: dict) -> float:
     return float(nspec["alpha"])
 
 
-def directions(parametrization: str, a0, a1, a2, eta: float = 1.5):
-    """NumPy float64 version of the kernel's direction setup (for tools and tests).
+def blocks(nspec: dict, axes: dict, ctx: Context, block_texels: int = BLOCK_TEXELS):
+    """Yield (i0_start, i0_end, channels) over blocks of whole axis-0 slices.
 
-    Returns (w_i, w_o reflected, w_o transmitted, ok_t) broadcast over the angle arrays.
+    ``channels`` maps each of :data:`CHANNELS` to a float64 array shaped
+    (i0_end - i0_start, n1, n2); a block holds about ``block_texels`` texels (at least one slice).
     """
-    a0, a1, a2 = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (a0, a1, a2)))
-    c2, s2 = np.cos(a2), np.sin(a2)
-    if parametrization == "half_diff":
-        ch, sh, cd, sd = np.cos(a0), np.sin(a0), np.cos(a1), np.sin(a1)
-        dx, dy = sd * c2, sd * s2
-        h = np.stack([sh, np.zeros_like(sh), ch], -1)
-        wi = np.stack([ch * dx + sh * cd, dy, -sh * dx + ch * cd], -1)
-        wr = 2.0 * cd[..., None] * h - wi
-        k2 = 1.0 - (1.0 - cd * cd) / (eta * eta)
-        ok = k2 >= 0.0
-        wt = (cd / eta - np.sqrt(np.maximum(k2, 0.0)))[..., None] * h - wi / eta
-        return wi, wr, np.where(ok[..., None], wt, 0.0), ok
-    si, ci, so, co = np.sin(a0), np.cos(a0), np.sin(a1), np.cos(a1)
-    wi = np.stack([si, np.zeros_like(si), ci], -1)
-    wr = np.stack([so * c2, so * s2, co], -1)
-    wt = np.stack([so * c2, so * s2, -co], -1)
-    return wi, wr, wt, np.ones(a0.shape, dtype=bool)
-
-
-# --------------------------------------------------------------------------- blocks
-
-
-def _iter_blocks(nspec: dict, axes: dict, ctx: Context, block_texels: int = BLOCK_TEXELS):
-    """Yield (i0_start, i0_end, values (4, nb, n1, n2) float64) over blocks of axis-0 slices."""
     names = list(axes)
     ax = [np.ascontiguousarray(axes[n], dtype=np.float64) for n in names]
     n0, n1, n2 = (len(a) for a in ax)
     per_slice = n1 * n2
     step = max(1, block_texels // per_slice)
     params = integrator_params(nspec)
-    dev = ctx.device if ctx.device is not None else resolve_device(None)
+    dev = ctx.device
     d_ax1 = wp.array(ax[1], dtype=wp.float64, device=dev)
     d_ax2 = wp.array(ax[2], dtype=wp.float64, device=dev)
     alpha = material_alpha(nspec)
@@ -243,250 +212,35 @@ def _iter_blocks(nspec: dict, axes: dict, ctx: Context, block_texels: int = BLOC
 
         chunk = None if dev.is_cuda else max(4096, -(-n // (4 * (ctx.workers or default_workers()))))
         run_chunks(n, launch, dev, workers=ctx.workers, chunk=chunk, progress=ctx.reporter())
-        yield start, end, d_out.numpy().reshape(4, end - start, n1, n2)
+        values = d_out.numpy().reshape(4, end - start, n1, n2)
+        yield start, end, {name: values[c] for c, name in enumerate(CHANNELS)}
 
 
 def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     """The whole table in memory: {f_r, f_t, f_r_err, f_t_err}, each shaped by the axes."""
     shape = tuple(len(a) for a in axes.values())
-    out = np.empty((4,) + shape, dtype=np.float64)
-    for start, end, vals in _iter_blocks(nspec, axes, ctx):
-        out[:, start:end] = vals
-    return {name: out[c] for c, name in enumerate(CHANNELS)}
+    out = {name: np.empty(shape, dtype=np.float64) for name in CHANNELS}
+    for start, end, channels in blocks(nspec, axes, ctx):
+        for name in CHANNELS:
+            out[name][start:end] = channels[name]
+    return out
 
 
-# --------------------------------------------------------------------------- streaming
-
-
-class StreamedTable:
-    """What :func:`bake_bsdf_streaming` wrote: axes, meta and max errors (no channel data)."""
-
-    def __init__(self, axes: dict, meta: dict, channels: tuple[str, ...] = CHANNELS):
-        self.axes = axes
-        self.meta = meta
-        self.channel_names = list(channels)
-
-    @property
-    def kind(self) -> str:
-        return self.meta["spec"]["table"]
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return tuple(len(a) for a in self.axes.values())
-
-    def max_error(self) -> dict[str, float]:
-        return dict(self.meta.get("max_error", {}))
-
-    def __repr__(self) -> str:
-        axes = " x ".join(f"{n}[{len(a)}]" for n, a in self.axes.items())
-        return f"StreamedTable(bsdf: {axes})"
-
-
-def _meta(nspec: dict, max_error: dict) -> dict:
-    """The metadata :func:`bsdf_tab.tabulate` records (kept identical, tested)."""
-    from .. import __version__
-    from ..api import _METHOD_TEXT, conventions
-
-    return {
-        "table": nspec["table"],
-        "spec": nspec,
-        "conventions": conventions(nspec),
-        "method": {
-            "name": nspec["method"],
-            "tolerance": nspec["tolerance"],
-            "description": _METHOD_TEXT.get(nspec["method"], nspec["method"]),
-            "precision": "float64 (stored as float32)",
+KINDS = {
+    "bsdf": {
+        # axes of the default parametrization; see "parametrizations"
+        "axes": ("theta_i", "theta_o", "phi_d"),
+        "channels": ("f_r", "f_t"),
+        "fresnel": "any",
+        "methods": ("point",),
+        "params": ("alpha", "roughness", "parametrization"),
+        "parametrizations": {
+            "angles": ("theta_i", "theta_o", "phi_d"),
+            "half_diff": ("theta_h", "theta_d", "phi_d"),
         },
-        "max_error": max_error,
-        "version": __version__,
-    }
-
-
-def _progress_callback(progress, total_desc: str):
-    if callable(progress):
-        return progress, None
-    if progress is True:
-        from tqdm import tqdm
-
-        bar = tqdm(total=0, unit="texel", unit_scale=True, desc=total_desc, leave=False, dynamic_ncols=True)
-
-        def callback(done: int, total: int) -> None:
-            bar.total = total
-            bar.n = done
-            bar.refresh()
-
-        return callback, bar
-    return None, None
-
-
-def bake_bsdf_streaming(
-    spec: dict | str,
-    path,
-    *,
-    device: str | None = None,
-    workers: int | None = None,
-    progress: bool | Callable[[int, int], None] = False,
-    block_texels: int = BLOCK_TEXELS,
-) -> StreamedTable:
-    """Compute a ``bsdf`` table block by block and write it to ``path`` with bounded memory.
-
-    Parameters
-    ----------
-    spec : dict or str
-        A ``bsdf`` spec.
-    path : str or os.PathLike
-        ``.exr`` (the layout of :func:`bsdf_tab.exr.write_exr`: axis-0 slices stacked
-        vertically) or ``.npz`` (the layout of :meth:`Table.to_npz_bytes`, float64).
-        ``read_exr`` / ``Table.from_npz_bytes`` read back exactly what
-        ``tabulate(spec)`` would have written.
-    device, workers, progress
-        As for :func:`bsdf_tab.tabulate`.
-    block_texels : int
-        Texels computed per block (memory ~ 32 bytes each); a block is whole axis-0 slices.
-
-    Returns
-    -------
-    StreamedTable
-        Axes, metadata (with ``max_error``) of the written table.
-
-    Notes
-    -----
-    Values go to a raw temporary file next to the output (channel-major; float32 for EXR,
-    float64 for npz) with plain writes, because the metadata (``max_error``) precedes the
-    pixels in both formats; the output is then written block by block from it and the
-    temporary removed. Memory (resident) stays at a few blocks, disk needs about twice the
-    output's uncompressed size.
-    """
-    nspec = normalize_spec(spec)
-    if nspec["table"] != "bsdf":
-        raise ValueError(f"bake_bsdf_streaming bakes bsdf tables, got table {nspec['table']!r}")
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".exr", ".npz"):
-        raise ValueError(f"output {path}: streaming writes .exr or .npz")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise FileNotFoundError(f"cannot write {path}: folder {folder} does not exist")
-    axes = resolve_axes(nspec)
-    shape = tuple(len(a) for a in axes.values())
-    dev = resolve_device(device)
-    callback, bar = _progress_callback(progress, "bsdf")
-    ctx = Context(dev, workers, callback)
-    dtype = np.float32 if suffix == ".exr" else np.float64
-    tag = f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}"
-    scratch = folder / (tag + ".raw")
-    tmp_out = folder / (tag + ".tmp" + suffix)
-    max_err = {"f_r": 0.0, "f_t": 0.0}
-    try:
-        step = max(1, block_texels // (shape[1] * shape[2]))
-        with open(scratch, "w+b") as raw:
-            store = _Scratch(raw, shape, dtype)
-            try:
-                for start, end, vals in _iter_blocks(nspec, axes, ctx, block_texels):
-                    store.write(start, vals)
-                    max_err["f_r"] = max(max_err["f_r"], float(vals[2].max()))
-                    max_err["f_t"] = max(max_err["f_t"], float(vals[3].max()))
-            finally:
-                if bar is not None:
-                    bar.close()
-            meta = _meta(nspec, max_err)
-            if suffix == ".exr":
-                _write_exr_blocks(store, axes, meta, tmp_out, step)
-            else:
-                _write_npz(store, axes, meta, tmp_out)
-        os.replace(tmp_out, path)
-    finally:
-        for p in (scratch, tmp_out):
-            if p.exists():
-                p.unlink()
-    return StreamedTable(axes, meta)
-
-
-class _Scratch:
-    """Channel-major (4, n0, n1, n2) values in a raw file, written and read by axis-0 blocks."""
-
-    def __init__(self, fh, shape: tuple[int, int, int], dtype):
-        self.fh = fh
-        self.shape = shape
-        self.dtype = np.dtype(dtype)
-        self.slice_bytes = shape[1] * shape[2] * self.dtype.itemsize
-        self.plane_bytes = shape[0] * self.slice_bytes
-
-    def write(self, start: int, vals: np.ndarray) -> None:
-        for c in range(vals.shape[0]):
-            self.fh.seek(c * self.plane_bytes + start * self.slice_bytes)
-            self.fh.write(np.ascontiguousarray(vals[c], dtype=self.dtype).tobytes())
-
-    def read(self, c: int, start: int, end: int) -> np.ndarray:
-        self.fh.seek(c * self.plane_bytes + start * self.slice_bytes)
-        data = self.fh.read((end - start) * self.slice_bytes)
-        return np.frombuffer(data, dtype=self.dtype).reshape((end - start,) + self.shape[1:])
-
-
-class _HeaderView:
-    """Enough of a Table for :func:`bsdf_tab.exr._header` (names, axes, meta)."""
-
-    def __init__(self, axes, meta):
-        self.axes = axes
-        self.meta = meta
-        self.channels = dict.fromkeys(CHANNELS)
-
-
-def _write_exr_blocks(store: _Scratch, axes: dict, meta: dict, out: Path, step: int) -> None:
-    import OpenEXR
-
-    from ..exr import ATTR_PREFIX, _header
-
-    n0, n1, n2 = store.shape
-    height, width = n0 * n1, n2
-    attrs = {k: v for k, v in _header(_HeaderView(axes, meta)).items() if k.startswith(ATTR_PREFIX)}
-    if not hasattr(OpenEXR, "OutputFile"):  # pragma: no cover - OpenEXR without the scanline writer
-        from ..table import Table
-
-        Table(axes, {name: store.read(c, 0, n0) for c, name in enumerate(CHANNELS)}, meta).write_exr(out)
-        return
-    header = OpenEXR.Header(width, height)
-    proto = header["channels"]["R"]  # a FLOAT channel description
-    header["channels"] = {name: proto for name in CHANNELS}
-    for key, value in attrs.items():
-        header[key] = value.encode("utf-8")
-    exr = OpenEXR.OutputFile(str(out), header)
-    try:
-        for start in range(0, n0, step):
-            end = min(n0, start + step)
-            rows = (end - start) * n1
-            exr.writePixels(
-                {name: store.read(c, start, end).astype(np.float32).tobytes() for c, name in enumerate(CHANNELS)},
-                rows,
-            )
-    finally:
-        exr.close()
-
-
-def _write_npz(store: _Scratch, axes: dict, meta: dict, out: Path) -> None:
-    """The archive of :meth:`Table.to_npz_bytes`, each channel member streamed by blocks."""
-    import json
-
-    from ..table import json_default
-
-    small = {"axis_order": np.array(list(axes), dtype=str)}
-    small.update({f"axis/{n}": np.asarray(a, dtype=np.float64) for n, a in axes.items()})
-    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
-
-        def member(name: str, arr: np.ndarray) -> None:
-            with zf.open(name + ".npy", "w", force_zip64=True) as fh:
-                np.lib.format.write_array(fh, arr, allow_pickle=False)
-
-        for name, arr in small.items():
-            member(name, arr)
-        n0 = store.shape[0]
-        step = max(1, (1 << 23) // store.slice_bytes)
-        for c, name in enumerate(CHANNELS):
-            with zf.open(f"channel/{name}.npy", "w", force_zip64=True) as fh:
-                header = {"descr": np.lib.format.dtype_to_descr(store.dtype), "fortran_order": False,
-                          "shape": store.shape}
-                np.lib.format.write_array_header_1_0(fh, header)
-                for start in range(0, n0, step):
-                    fh.write(store.read(c, start, min(n0, start + step)).tobytes())
-        member("channel_order", np.array(list(CHANNELS), dtype=str))
-        member("meta", np.array(json.dumps(meta, default=json_default)))
+        "description": "BSDF values f_r (reflection) and f_t (transmission, dielectric Fresnel) of one "
+        "material on an angular grid: plain angles or Rusinkiewicz half/difference angles (MERL layout)",
+        "compute": compute,
+        "blocks": blocks,
+    },
+}

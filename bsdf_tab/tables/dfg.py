@@ -11,3 +11,14 @@ from ._common import Context, run_grid
 def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     values, errors = run_grid("dfg", nspec, axes, ctx)
     return {"A": values[..., 0], "B": values[..., 1], "A_err": errors[..., 0], "B_err": errors[..., 1]}
+
+
+KINDS = {
+    "dfg": {
+        "axes": ("mu", "alpha"),
+        "channels": ("A", "B"),
+        "fresnel": "one",
+        "description": "split-sum DFG terms: E = f0 A + B for Schlick Fresnel",
+        "compute": compute,
+    },
+}

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..spec import alpha_values
+from ..axes import alpha_values
 from ._common import Context, mu_average, run_grid
 
 
@@ -44,3 +44,21 @@ def compute_avg(nspec: dict, axes: dict, ctx: Context) -> dict:
         "R_avg_err": errors[:, 0].reshape(shape),
         "T_avg_err": errors[:, 1].reshape(shape),
     }
+
+
+KINDS = {
+    "dielectric": {
+        "axes": ("mu", "alpha", "eta"),
+        "channels": ("R", "T"),
+        "fresnel": "axis",
+        "description": "reflected R and transmitted T energy of a rough dielectric interface",
+        "compute": compute,
+    },
+    "dielectric_avg": {
+        "axes": ("alpha", "eta"),
+        "channels": ("R_avg", "T_avg"),
+        "fresnel": "axis",
+        "description": "mu-weighted averages of R and T of a rough dielectric interface",
+        "compute": compute_avg,
+    },
+}

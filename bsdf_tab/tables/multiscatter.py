@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..spec import alpha_values
+from ..axes import alpha_values
 from ._common import Context, mu_average, run_grid
 
 
@@ -47,3 +47,15 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     E_avg_err = np.broadcast_to(avg_err[:, 0], E.shape).copy()
     C, C_err = compensation(E, E_err, E_avg, E_avg_err)
     return {"E": E, "E_avg": E_avg, "C": C, "E_err": E_err, "E_avg_err": E_avg_err, "C_err": C_err}
+
+
+KINDS = {
+    "kulla_conty": {
+        "axes": ("mu", "alpha"),
+        "channels": ("E", "E_avg", "C"),
+        "fresnel": "one",
+        "description": "Kulla-Conty 2017 multiple-scattering compensation: single-scattering E (F = 1), "
+        "E_avg (repeated along mu) and C = (1 - E) / sqrt(pi (1 - E_avg)), so f_ms(i, o) = C(mu_i) C(mu_o)",
+        "compute": compute,
+    },
+}
