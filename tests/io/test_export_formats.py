@@ -1,4 +1,7 @@
-"""Exports: .npy round trip, C/C++ header compiled and read back, half-float EXR error bound."""
+"""Export formats: npy-channels round trip, C/C++ header compiled and read back, half-float EXR.
+
+Independent truths: ``numpy.load`` for the .npy files, a C compiler for the header, OpenEXR
+itself and numpy's IEEE float16 rounding for the half EXR."""
 
 from __future__ import annotations
 
@@ -11,16 +14,14 @@ import OpenEXR
 import pytest
 
 from bsdf_tab import read_exr
-from bsdf_tab.export import (
-    c_identifier,
-    header_text,
-    read_npy,
-    to_half_table,
-    write_half_exr,
-    write_header,
-    write_npy,
-)
+from bsdf_tab.io.c_header import c_identifier, header_text, write_header
+from bsdf_tab.io.half_exr import to_half, write_half_exr
+from bsdf_tab.io.npy_channels import read_npy_channels, write_npy_channels
 from bsdf_tab.table import Table
+
+
+def to_half_table(table):
+    return to_half(table, Table)
 
 
 def make_table(shape=(3, 4, 5), seed=1) -> Table:
@@ -38,14 +39,16 @@ def make_table(shape=(3, 4, 5), seed=1) -> Table:
     return Table(axes, channels, meta)
 
 
-# --------------------------------------------------------------------------- npy
+# --------------------------------------------------------------------------- npy-channels
 
 
 @pytest.mark.parametrize("stacked", [False, True])
 def test_npy_round_trip(tmp_path, stacked):
     table = make_table()
-    paths = write_npy(table, tmp_path, "tab", stacked=stacked)
+    paths = write_npy_channels(table, tmp_path, "tab", stacked=stacked)
     assert all(p.exists() for p in paths)
+    assert paths[-1] == tmp_path / "tab.meta.json"  # the sidecar comes last
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in paths)  # no temporaries
     info = json.loads((tmp_path / "tab.meta.json").read_text())
     assert info["axis_order"] == ["ior", "mu", "roughness"] and info["channel_order"] == ["E", "E_err", "T", "T_err"]
     if stacked:
@@ -57,7 +60,7 @@ def test_npy_round_trip(tmp_path, stacked):
         assert e.shape == (3, 4, 5) and e.dtype == np.float32
         np.testing.assert_array_equal(e, table.channels["E"].astype(np.float32))
     np.testing.assert_array_equal(np.load(tmp_path / "tab.axis.ior.npy"), table.axes["ior"])  # float64, exact
-    back = read_npy(tmp_path, "tab")
+    back = read_npy_channels(tmp_path, "tab", Table)
     assert list(back.axes) == list(table.axes) and back.meta == table.meta
     for name in table.channels:
         np.testing.assert_array_equal(back.channels[name], table.channels[name].astype(np.float32))
@@ -65,7 +68,7 @@ def test_npy_round_trip(tmp_path, stacked):
 
 def test_npy_missing_folder(tmp_path):
     with pytest.raises(FileNotFoundError):
-        write_npy(make_table(), tmp_path / "nope", "tab")
+        write_npy_channels(make_table(), tmp_path / "nope", "tab")
 
 
 # --------------------------------------------------------------------------- C header
@@ -176,3 +179,39 @@ def test_half_exact_values_have_zero_error():
     half, reported = to_half_table(table)
     assert reported["E"] == 0.0
     np.testing.assert_array_equal(half.channels["E_err"] >= table.channels["E_err"].astype(np.float16), True)
+
+
+def test_half_exr_channels_are_numpy_float16_rounding(tmp_path):
+    """The file (read by OpenEXR directly) holds numpy's IEEE round-to-nearest float16 of each
+    value, and each error channel holds the smallest float16 >= original error + |float16(x) - x|."""
+    table = make_table((3, 4, 5), seed=7)
+    path = tmp_path / "r.half.exr"
+    write_half_exr(table, path)
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        header = dict(exr.header())
+        pixels = {n: np.array(c.pixels) for n, c in exr.channels().items()}
+    reported = json.loads(header["bsdf_tab_half_error"])
+    for name in ("E", "T"):
+        x = table.channels[name]
+        img = pixels[name].reshape(x.shape)  # 3-D: axis-0 slices stacked vertically
+        np.testing.assert_array_equal(img, x.astype(np.float16))
+        rounding = np.abs(x.astype(np.float16).astype(np.float64) - x)
+        assert reported[name] == rounding.max()
+        need = table.channels[name + "_err"] + rounding
+        err = pixels[name + "_err"].reshape(x.shape)
+        assert err.dtype == np.float16
+        assert (err.astype(np.float64) >= need).all()  # a bound
+        below = np.nextafter(err, np.float16(-np.inf)).astype(np.float64)
+        assert (below < need).all()  # and the tightest half-float bound
+    meta = json.loads(header["bsdf_tab_meta"])
+    assert meta["max_error"]["E"] == float(pixels["E_err"].astype(np.float64).max())
+
+
+def test_half_exr_written_atomically(tmp_path):
+    table = make_table((2, 3), seed=8)
+    table.channels["E"][0, 0] = 7e4  # beyond half
+    (tmp_path / "keep.half.exr").write_bytes(b"old")
+    with pytest.raises(ValueError, match="float16 range"):
+        write_half_exr(table, tmp_path / "keep.half.exr")
+    assert (tmp_path / "keep.half.exr").read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.half.exr"]

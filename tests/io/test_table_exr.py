@@ -1,4 +1,7 @@
-"""Tests of bsdf_tab.table.Table and the EXR round trip in bsdf_tab.exr."""
+"""Tests of bsdf_tab.table.Table and the float32 EXR format (bsdf_tab.io.exr).
+
+The independent truth for the file is OpenEXR itself: the header and pixels are read with
+``OpenEXR.File`` directly and checked against the documented layout."""
 
 import json
 import os
@@ -7,7 +10,8 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from bsdf_tab.exr import exr_bytes, read_exr, read_exr_bytes, write_exr
+from bsdf_tab import read_exr, write_exr
+from bsdf_tab.io.exr import exr_bytes, read_exr_bytes
 from bsdf_tab.spec import normalize_spec, resolve_axes
 from bsdf_tab.table import Table
 
@@ -137,7 +141,7 @@ def test_exr_bytes_round_trip():
     t = make_table("3d")
     data = exr_bytes(t)
     assert data[:4] == b"\x76\x2f\x31\x01"
-    assert_tables_equal(t, read_exr_bytes(data))
+    assert_tables_equal(t, read_exr_bytes(data, Table))
 
 
 def raw_exr(path):
@@ -151,8 +155,15 @@ def test_exr_header_attributes_are_json_strings(tmp_path):
     t = make_table("3d")
     t.write_exr(tmp_path / "h.exr")
     header, _ = raw_exr(tmp_path / "h.exr")
-    for key in ("bsdf_tab_spec", "bsdf_tab_axes", "bsdf_tab_meta", "bsdf_tab_layout", "bsdf_tab_version"):
+    for key in ("bsdf_tab_spec", "bsdf_tab_axes", "bsdf_tab_channels", "bsdf_tab_meta", "bsdf_tab_layout",
+                "bsdf_tab_version"):
         assert isinstance(header[key], str), key
+    # the standard attributes OpenEXR readers expect, as the header has always had them
+    assert header["compression"] == OpenEXR.ZIP_COMPRESSION
+    assert header["type"] == OpenEXR.scanlineimage
+    assert isinstance(header["pixelAspectRatio"], float) and header["pixelAspectRatio"] == 1.0
+    assert header["screenWindowCenter"].dtype == np.float32  # float attributes are 32-bit
+    assert json.loads(header["bsdf_tab_channels"]) == ["R", "T", "R_err", "T_err"]
     assert json.loads(header["bsdf_tab_spec"]) == t.meta["spec"]
     assert json.loads(header["bsdf_tab_meta"]) == t.meta
     axes = json.loads(header["bsdf_tab_axes"])
@@ -231,6 +242,20 @@ def test_write_into_missing_folder(tmp_path):
 def test_write_leaves_no_temp_files(tmp_path):
     make_table("2d").write_exr(tmp_path / "x.exr")
     assert [p.name for p in tmp_path.iterdir()] == ["x.exr"]
+
+
+def test_write_without_channels_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="without channels"):
+        Table({"alpha": np.array([0.1])}, {}, {}).write_exr(tmp_path / "e.exr")
+    assert not any(tmp_path.iterdir())
+
+
+def test_version_attribute_falls_back_to_the_package_version(tmp_path):
+    from bsdf_tab.version import __version__
+
+    Table({"alpha": np.array([0.1, 0.2])}, {"E_avg": np.array([0.5, 0.25])}, {}).write_exr(tmp_path / "v.exr")
+    header, _ = raw_exr(tmp_path / "v.exr")
+    assert header["bsdf_tab_version"] == __version__ and __version__
 
 
 def test_written_file_is_readable_by_others_under_default_umask(tmp_path):
