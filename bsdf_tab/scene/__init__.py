@@ -15,7 +15,7 @@ Modules: :mod:`.parse` (scene files, validation through :mod:`bsdf_tab.spec`), :
 from __future__ import annotations
 
 from .lookup import AxisPlan, lookup
-from .manifest import bake_scene, material_entry, plan_dict
+from .manifest import bake_scene
 from .parse import (
     INTERPOLATIONS,
     LOOKUP_TOL_RANGE,
@@ -41,8 +41,6 @@ __all__ = [
     "is_scene",
     "load_scene_file",
     "lookup",
-    "material_entry",
     "parse_scene",
-    "plan_dict",
     "plan_scene",
 ]
