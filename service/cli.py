@@ -1,4 +1,4 @@
-"""``bsdf-tab serve``: registered into the library's CLI (imports nothing heavy until run)."""
+"""``bsdf-tab serve``: added to the library's CLI through the ``bsdf_tab.commands`` entry point (imports nothing heavy until run)."""
 
 from __future__ import annotations
 
@@ -50,5 +50,5 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def register(register_command) -> None:
-    """Add ``serve`` to the ``bsdf-tab`` command (``register_command`` from :mod:`bsdf_tab.cli`)."""
+    """Add ``serve`` to the ``bsdf-tab`` command: the ``bsdf_tab.commands`` entry point (pyproject.toml)."""
     register_command("serve", "run the HTTP service (FastAPI on uvicorn)", _configure, _serve)

@@ -44,7 +44,7 @@ def server(tmp_path_factory):
         "--cache-dir", str(cache), "--workers", "2", "--max-texels", "4096", "--no-warmup", "--log-level", "warning",
     ]
     log = open(cache / "server.log", "wb")
-    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=os.path.dirname(os.path.dirname(__file__)))
+    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
     try:
         deadline = time.monotonic() + 60
         while True:

@@ -1,10 +1,10 @@
 """Engine presets: axes, axis order and value conventions of each peer, and the CLI.
 
 Axis values are written here from the peers' published formulas (the anchors README), not
-taken from the preset code; preset values are checked against plain ``tabulate`` results on
-small subsets (so the transformations - sums, complements, transposes, reversed eta, the
-duplicated OpenPBR ior = 1 - are right), and, where the anchors are present, against the
-peers' own tables at a few texels.
+taken from the preset code; preset texels are checked against the independent float64
+reference (tests/reference) with the peer's transformation written here (so the sums,
+complements, transposes, reversed eta and the duplicated OpenPBR ior = 1 are right, and the
+values too), and, where the anchors are present, against the peers' own tables.
 """
 
 from __future__ import annotations
@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bsdf_tab import cli, tabulate
+from bsdf_tab import cli
 from bsdf_tab.presets import GROUPS, PRESETS, build_preset, expand_preset, get_preset
+from tests.reference import microfacet_ref as ref
 
-ANCHORS = Path(os.environ.get("BSDF_TAB_ANCHORS") or Path(__file__).resolve().parents[2] / "shared" / "anchors")
+ANCHORS = Path(os.environ.get("BSDF_TAB_ANCHORS") or Path(__file__).resolve().parents[3] / "shared" / "anchors")
 
 
 def anchor(rel: str) -> np.ndarray:
@@ -103,39 +104,47 @@ def test_groups_and_unknown_preset():
         get_preset("nope")
 
 
-# --------------------------------------------------------------------------- values vs plain tabulate
+# --------------------------------------------------------------------------- values vs the float64 reference
+# Each preset texel is checked against the independent reference (tests/reference: two float64
+# quadratures), with the peer's transformation written here from its documented convention:
+# this checks the axis order, the sums, complements and reversed eta, and the values at once.
+
+TOL = 1e-6  # the default tolerance's promise, with room for the reference's own error
+
+
+def ref_albedo(mu, r, shadowing):
+    return ref.albedo(mu, r * r, "ggx", shadowing).value
+
+
+def ref_rt(mu, r, eta, shadowing):
+    R, T = ref.dielectric(mu, r * r, eta, "ggx", shadowing)
+    return R.value, T.value
 
 
 def test_cycles_E_is_correlated_albedo_with_mirror_rule():
-    sel = {"mu": [0, 9, 31], "roughness": [0, 1, 12, 31]}
+    sel = {"mu": [0, 9, 31], "roughness": [0, 12, 31]}
     t = build_preset("cycles-ggx-E", select=sel)
     mu = [1e-4, 9 / 31, 1.0]
-    rough = [1e-4, 1 / 31, 12 / 31, 1.0]
-    plain = tabulate({"table": "albedo", "shadowing": "correlated", "axes": {"mu": mu, "roughness": rough}})
     e = ch(t, "E")
-    assert e.shape == (3, 4)
+    assert e.shape == (3, 3)
     np.testing.assert_array_equal(e[:, 0], 1.0)  # alpha = 1e-8: alpha^2 <= 5e-7, a perfect mirror
-    np.testing.assert_allclose(e[:, 1:], np.clip(ch(plain, "E")[:, 1:], 0, 1), atol=1e-12)
-    assert e[2, 3] == pytest.approx(1 - np.log(2), abs=2e-6)  # closed form E(mu = 1, alpha = 1)
+    assert e[1, 1] == pytest.approx(min(1.0, ref_albedo(mu[1], 12 / 31, "correlated")), abs=TOL)
+    assert e[2, 2] == pytest.approx(1 - np.log(2), abs=TOL)  # closed form E(mu = 1, alpha = 1)
+    assert ch(t, "E_err")[0, 0] >= 0.0
     assert t.meta["preset"]["conventions"]["shadowing"].startswith("height-correlated")
 
 
 def test_cycles_glass_inv_order_and_sum():
-    sel = {"ior": [1, 8, 14], "mu": [2, 15], "roughness": [4, 10]}
+    sel = {"ior": [1, 8, 14], "mu": [2, 15], "roughness": [10]}
     t = build_preset("cycles-ggx-glass-inv-E", select=sel)
     ior = cycles_ior_expected()[[1, 8, 14]]
-    mu, rough = [2 / 15, 1.0], [4 / 15, 10 / 15]
-    eta = sorted(1.0 / ior)  # ascending: the reverse of the ior order
-    plain = tabulate({"table": "dielectric", "shadowing": "correlated",
-                      "axes": {"mu": mu, "roughness": rough, "eta": eta}})
+    mu, rough = [2 / 15, 1.0], 10 / 15
     e = ch(t, "E")
-    assert e.shape == (3, 2, 2)  # [ior, mu, roughness]
-    for k in range(3):
-        kk = 2 - k  # eta ascending <-> ior descending
-        want = ch(plain, "R")[:, :, kk] + ch(plain, "T")[:, :, kk]
-        np.testing.assert_allclose(e[k], np.clip(want, 0, 1), atol=1e-12)
-        np.testing.assert_allclose(ch(t, "E_err")[k], ch(plain, "R_err")[:, :, kk] + ch(plain, "T_err")[:, :, kk],
-                                   rtol=1e-9, atol=1e-15)
+    assert e.shape == (3, 2, 1)  # [ior, mu, roughness]
+    for k, j in [(0, 0), (2, 0), (1, 1)]:
+        R, T = ref_rt(mu[j], rough, 1.0 / ior[k], "correlated")  # eta = 1 / ior: light from inside
+        assert e[k, j, 0] == pytest.approx(min(1.0, R + T), abs=2 * TOL)
+    assert (ch(t, "E_err") > 0).all()
     assert "1 / ior" in t.meta["preset"]["conventions"]["eta"]
 
 
@@ -149,55 +158,54 @@ def test_cycles_glass_last_ior_is_computed():
 
 
 def test_openpbr_dielectric_complement_order_and_duplicate_ior():
-    sel = {"ior": [3, 15, 16, 25], "roughness": [5, 20], "cos": [7, 31]}
+    sel = {"ior": [3, 15, 16, 25], "roughness": [20], "cos": [7, 31]}
     t = build_preset("openpbr-ideal-dielectric", select=sel)
     o = build_preset("openpbr-opaque-dielectric", select=sel)
-    eta = [1 / (1 + 1.5 * 12 / 15), 1.0, 1.9]
-    plain = tabulate({"table": "dielectric", "shadowing": "separable",
-                      "axes": {"mu": [7 / 31, 1.0], "roughness": [5 / 31, 20 / 31], "eta": eta}})
     c = ch(t, "energy_complement")
-    assert c.shape == (4, 2, 2)  # [ior, roughness, cos]
-    for k, kk in enumerate([0, 1, 1, 2]):
-        rt = ch(plain, "R")[:, :, kk] + ch(plain, "T")[:, :, kk]  # [cos, roughness]
-        np.testing.assert_allclose(c[k], 1.0 - rt.T, atol=1e-12)
-        np.testing.assert_allclose(ch(o, "energy_complement")[k], 1.0 - ch(plain, "R")[:, :, kk].T, atol=1e-12)
+    assert c.shape == (4, 1, 2)  # [ior, roughness, cos]
+    for k, j, eta in [(0, 0, 1 / (1 + 1.5 * 12 / 15)), (3, 1, 1.9)]:
+        R, T = ref_rt([7 / 31, 1.0][j], 20 / 31, eta, "separable")
+        assert c[k, 0, j] == pytest.approx(1.0 - (R + T), abs=2 * TOL)
+        assert ch(o, "energy_complement")[k, 0, j] == pytest.approx(1.0 - R, abs=TOL)
     np.testing.assert_array_equal(c[1], c[2])  # ior = 1 twice
+    assert c[1, 0, 1] == pytest.approx(0.0, abs=TOL)  # eta = 1: no interface, R + T = 1
     assert "separable" in t.meta["preset"]["conventions"]["shadowing"]
 
 
 def test_openpbr_metal_is_one_minus_separable_albedo():
-    t = build_preset("openpbr-ideal-metal", select={"roughness": [8, 31], "cos": [0, 10, 31]})
-    plain = tabulate({"table": "albedo", "shadowing": "separable",
-                      "axes": {"mu": [0.0, 10 / 31, 1.0], "roughness": [8 / 31, 1.0]}})
-    np.testing.assert_allclose(ch(t, "energy_complement"), 1.0 - ch(plain, "E").T, atol=1e-12)
-    assert ch(t, "energy_complement")[1, 2] == pytest.approx(np.log(2), abs=2e-6)  # 1 - (1 - ln 2)
+    t = build_preset("openpbr-ideal-metal", select={"roughness": [8, 31], "cos": [10, 31]})
+    c = ch(t, "energy_complement")
+    assert c.shape == (2, 2)  # [roughness, cos]
+    assert c[0, 0] == pytest.approx(1.0 - ref_albedo(10 / 31, 8 / 31, "separable"), abs=TOL)
+    assert c[1, 1] == pytest.approx(np.log(2), abs=TOL)  # 1 - (1 - ln 2)
 
 
-@pytest.mark.parametrize("name,mu", [("filament-dfg-multiscatter", [0.5 / 128, 100.5 / 128]),
-                                     ("unity-hdrp-fgd", [0.0, (40 / 63) ** 2])])
+@pytest.mark.parametrize("name,mu", [("filament-dfg-multiscatter", 100.5 / 128), ("unity-hdrp-fgd", (40 / 63) ** 2)])
 def test_dfg_packing_b_e(name, mu):
-    sel = {"roughness": [3, 50], "mu": [0, 40 if name.startswith("unity") else 100]}
+    col = 40 if name.startswith("unity") else 100
+    sel = {"roughness": [3, 50], "mu": [0, col]}
     t = build_preset(name, select=sel)
-    r = get_preset(name).axes()["roughness"][[3, 50]]
-    plain = tabulate({"table": "dfg", "shadowing": "correlated", "axes": {"mu": mu, "roughness": list(r)}})
+    r = get_preset(name).axes()["roughness"][50]
     assert list(t.axes) == ["roughness", "mu"]
-    np.testing.assert_allclose(ch(t, "B"), ch(plain, "B").T, atol=1e-12)
-    np.testing.assert_allclose(ch(t, "E"), (ch(plain, "A") + ch(plain, "B")).T, atol=1e-12)
+    A, B = ref.dfg(mu, r * r, "ggx", "correlated")
+    assert ch(t, "B")[1, 1] == pytest.approx(B.value, abs=TOL)
+    assert ch(t, "E")[1, 1] == pytest.approx(A.value + B.value, abs=2 * TOL)
 
 
 def test_filament_single_scatter_a_b():
     t = build_preset("filament-dfg", select={"roughness": [127], "mu": [127]})
-    plain = tabulate({"table": "dfg", "axes": {"mu": [127.5 / 128], "roughness": [127.5 / 128]}})
-    assert ch(t, "A")[0, 0] == pytest.approx(ch(plain, "A")[0, 0], abs=1e-12)
-    assert ch(t, "B")[0, 0] == pytest.approx(ch(plain, "B")[0, 0], abs=1e-12)
+    r = 127.5 / 128
+    A, B = ref.dfg(127.5 / 128, r * r, "ggx", "correlated")
+    assert ch(t, "A")[0, 0] == pytest.approx(A.value, abs=TOL)
+    assert ch(t, "B")[0, 0] == pytest.approx(B.value, abs=TOL)
 
 
 def test_average_presets():
     t = build_preset("openpbr-ideal-dielectric-avg", select={"ior": [5, 28], "roughness": [31]})
-    plain = tabulate({"table": "dielectric_avg", "shadowing": "separable",
-                      "axes": {"roughness": [1.0], "eta": [0.5, 2.2]}})
-    want = 1.0 - (ch(plain, "R_avg") + ch(plain, "T_avg")).T  # (ior, roughness)
-    np.testing.assert_allclose(ch(t, "energy_complement"), want, atol=1e-12)
+    R, T = ref.dielectric_avg(1.0, 2.2, "ggx", "separable")  # ior index 28: 1 + 1.5 * 12/15 = 2.2
+    c = ch(t, "energy_complement")
+    assert c.shape == (2, 1)  # [ior, roughness]
+    assert c[1, 0] == pytest.approx(1.0 - (R.value + T.value), abs=2 * TOL + R.err + T.err)
     m = build_preset("openpbr-ideal-metal-avg", select={"roughness": [31]})
     # separable, F = 1, alpha = 1: E runs from 2 - 2 ln 2 (mu -> 0) to 1 - ln 2 (mu = 1), so
     # 1 - E_avg lies between 2 ln 2 - 1 and ln 2

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import bsdf_tab
+import bsdf_tab.api
 from bsdf_tab.integrate import integrate_texels
 
 
@@ -151,3 +152,42 @@ def test_bad_spec_raises_spec_error_naming_the_parameter():
     with pytest.raises(bsdf_tab.SpecError) as exc:
         bsdf_tab.tabulate({"table": "albedo", "axes": {"alpha": [-0.1]}})
     assert exc.value.param == "axes.alpha"
+
+
+# --------------------------------------------------------------------------- iter_blocks, arguments
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True])
+def test_bad_workers_is_a_value_error_naming_workers(workers):
+    with pytest.raises(ValueError, match="workers"):
+        bsdf_tab.tabulate({"table": "albedo", "axes": {"mu": [1.0], "alpha": [0.5]}}, workers=workers)
+    with pytest.raises(ValueError, match="workers"):
+        bsdf_tab.api.iter_blocks({"table": "albedo", "axes": {"mu": [1.0], "alpha": [0.5]}}, workers=workers)
+
+
+def test_iter_blocks_cover_axis0_once_with_the_closed_form():
+    # GGX, F = 1, correlated: E(mu = 1, alpha = 1) = 1 - ln 2 (SPEC section 5); bsdf values are
+    # checked against the reference in tests/tables; here: blocks, order, shapes and the meta
+    spec = {"table": "albedo", "axes": {"mu": [0.5, 1.0], "alpha": [0.25, 1.0]}}
+    stream = bsdf_tab.api.iter_blocks(spec, device="cpu")
+    assert stream.shape == (2, 2) and stream.channel_names == ["E", "E_err"]
+    with pytest.raises(RuntimeError):
+        stream.meta()  # not complete before every block was produced
+    blocks = list(stream)
+    assert [(b[0], b[1]) for b in blocks] == [(0, 2)]  # a kind without blocks: the whole table
+    E = blocks[0][2]["E"]
+    assert E[1, 1] == pytest.approx(1.0 - math.log(2.0), abs=1e-6)
+    assert stream.meta()["max_error"]["E"] == float(blocks[0][2]["E_err"].max())
+
+
+def test_iter_blocks_of_a_bsdf_table_are_whole_slices_in_order():
+    spec = {"table": "bsdf", "alpha": 0.3, "axes": {"theta_i": {"size": 7}, "theta_o": {"size": 3}, "phi_d": {"size": 2}}}
+    stream = bsdf_tab.api.iter_blocks(spec, device="cpu", block_texels=12)
+    blocks = list(stream)
+    assert [(s, e) for s, e, _ in blocks] == [(0, 2), (2, 4), (4, 6), (6, 7)]  # 6 texels a slice, 12 a block
+    for s, e, ch in blocks:
+        assert set(ch) == {"f_r", "f_t", "f_r_err", "f_t_err"} and ch["f_r"].shape == (e - s, 3, 2)
+    top = max(float(ch["f_r_err"].max()) for _, _, ch in blocks)
+    assert stream.meta()["max_error"]["f_r"] == top
+    with pytest.raises(ValueError, match="block_texels"):
+        bsdf_tab.api.iter_blocks(spec, block_texels=0)
