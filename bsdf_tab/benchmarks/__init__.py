@@ -1,1 +1,0 @@
-"""Benchmarks importable from the package (run them with ``bsdf-tab bench NAME``)."""
