@@ -5,22 +5,22 @@ Formats
 Every format has one name, used alike by the Python API, the CLI (``--format``), engine
 presets and the HTTP service (``format=``), and one meaning under that name:
 
-==============  ==============  ======================  =====================================
-name            file ending     media type              holds
-==============  ==============  ======================  =====================================
-``exr``         ``.exr``        ``image/x-exr``         float32 EXR, spec/axes/meta in the
-                                                        header; exact float32 round trip
-``half-exr``    ``.half.exr``   ``image/x-exr``         HALF EXR, rounding measured and added
-                                                        to the error channels
-``npz``         ``.npz``        ``application/x-npz``   axes, channels, meta; lossless
-``npy``         ``.npy``        ``application/x-npy``   ONE structured array, a float64 field
-                                                        per channel (no axes, no meta)
-``npy-channels`` ``.meta.json`` (none: several files)   one float32 ``.npy`` per channel, one
-                                                        float64 ``.npy`` per axis, a sidecar
-``json``        ``.json``       ``application/json``    axes, shape, channels (null for
-                                                        non-finite), meta
-``h``           ``.h``          ``text/x-c``            C99/C++ header of static arrays
-==============  ==============  ======================  =====================================
+- ``exr`` (``.exr``, ``image/x-exr``): float32 EXR, spec / axes / meta as JSON header
+  attributes; exact float32 round trip.
+- ``half-exr`` (``.half.exr``, ``image/x-exr``): the same layout with HALF channels; the
+  rounding is measured and added to the error channels.
+- ``npz`` (``.npz``, ``application/x-npz``): axes, channels, meta; lossless (the service's
+  master).
+- ``npy`` (``.npy``, ``application/x-npy``): ONE structured array shaped by the axes, a
+  float64 field per channel; no axes, no meta (write-only).
+- ``npy-channels`` (``.meta.json``, no media type: several files): one float32 ``.npy`` per
+  channel, one float64 ``.npy`` per axis, and the sidecar ``S.meta.json`` that names the set.
+- ``json`` (``.json``, ``application/json``): axes, shape, channels (``null`` for
+  non-finite values), meta; strict, compact.
+- ``h`` (``.h``, ``text/x-c``): a C99 / C++ header of static arrays (write-only).
+
+A file name's format is its longest matching ending (``lut.half.exr`` is ``half-exr``;
+``S.meta.json`` is ``npy-channels``, any other ``.json`` is ``json``), case-insensitively.
 
 ``npy`` means one ``.npy`` file holding a structured array whose fields are the channels,
 everywhere (it was so in the service; the CLI and presets used the name for per-channel
@@ -38,6 +38,18 @@ Python
 >>> table = bio.read("lut.exr", factory=bsdf_tab.Table)               # doctest: +SKIP
 >>> bio.format_for("lut.half.exr").name
 'half-exr'
+
+``bsdf_tab.Table`` has the same as methods: ``table.write(path, fmt=None)``,
+``Table.read(path, fmt=None)``, ``table.to_bytes(fmt)``, ``Table.from_bytes(data, fmt)``.
+
+Tables too large to hold go through :func:`write_blocks` (axes, channel names, blocks
+``(start texel, values)``, metadata or a function giving it after the last block) or
+:func:`write_stream` (a stream of axis-0 slabs such as ``bsdf_tab.api.iter_blocks``'s): the
+same file as the in-memory writer, for ``exr`` and ``npz`` (:func:`can_stream`).
+
+Adding a format: a module here with a ``FORMAT = Format(...)`` record, and one line in
+:data:`~bsdf_tab.io.registry.FORMATS`; the CLI and the service read names, endings and media
+types from the registry.
 
 An unknown name or ending raises :class:`FormatError` (a :class:`~bsdf_tab.errors.SpecError`)
 naming it and what is known.

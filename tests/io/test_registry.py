@@ -229,3 +229,18 @@ def test_write_into_a_missing_folder(tmp_path):
     for name in bio.names():
         with pytest.raises(FileNotFoundError, match="does not exist"):
             bio.write(make_table(), bio.output_path(tmp_path / "missing", "t", name))
+
+
+def test_npy_channels_by_stem_or_sidecar(tmp_path):
+    table = make_table(6)
+    written = bio.write(table, tmp_path / "cycles_E", fmt="npy-channels")
+    assert [p.name for p in written] == ["cycles_E.E.npy", "cycles_E.E_err.npy", "cycles_E.axis.mu.npy",
+                                         "cycles_E.axis.alpha.npy", "cycles_E.meta.json"]
+    e = np.load(tmp_path / "cycles_E.E.npy", allow_pickle=False)  # plain numpy, one array per channel
+    assert e.dtype == np.float32 and e.shape == (3, 2)
+    np.testing.assert_array_equal(e, table.channels["E"])
+    back = bio.read(tmp_path / "cycles_E.meta.json", factory=Table)
+    assert back.meta == table.meta and back.axes["mu"].tolist() == table.axes["mu"].tolist()
+    (tmp_path / "cycles_E.E_err.npy").unlink()
+    with pytest.raises(FileNotFoundError):
+        bio.read(tmp_path / "cycles_E.meta.json")
