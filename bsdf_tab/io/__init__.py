@@ -70,6 +70,8 @@ Modules: :mod:`~bsdf_tab.io.base` (the table-like protocol, :class:`Format`, JSO
 from .atomic import atomic_open, atomic_path, write_bytes, write_text
 from .base import ERR_SUFFIX, Format, FormatError, TableParts, json_default
 from .registry import (
+    ENDINGS,
+    FILE_FORMATS,
     FORMATS,
     accept_types,
     as_stored,
@@ -88,7 +90,9 @@ from .registry import (
 from .stream import STREAM_FORMATS, StreamedTable, can_stream, write_blocks, write_stream
 
 __all__ = [
+    "ENDINGS",
     "ERR_SUFFIX",
+    "FILE_FORMATS",
     "FORMATS",
     "Format",
     "FormatError",

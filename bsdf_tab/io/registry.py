@@ -16,6 +16,8 @@ from .base import Format, FormatError
 
 __all__ = [
     "FORMATS",
+    "FILE_FORMATS",
+    "ENDINGS",
     "names",
     "get_format",
     "endings",
@@ -44,6 +46,16 @@ FORMATS: dict[str, Format] = {
         c_header.FORMAT,
     )
 }
+
+
+def _all_endings() -> tuple[str, ...]:
+    return tuple(e for f in FORMATS.values() for e in f.suffixes)
+
+
+#: Every format name, in registry order (the choices of a ``--format`` option).
+FILE_FORMATS: tuple[str, ...] = tuple(FORMATS)
+#: Every file name ending, in registry order (``.exr``, ``.half.exr``, ...).
+ENDINGS: tuple[str, ...] = _all_endings()
 
 
 def names(*, readable: bool | None = None, single_file: bool | None = None) -> list[str]:

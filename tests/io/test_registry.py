@@ -244,3 +244,8 @@ def test_npy_channels_by_stem_or_sidecar(tmp_path):
     (tmp_path / "cycles_E.E_err.npy").unlink()
     with pytest.raises(FileNotFoundError):
         bio.read(tmp_path / "cycles_E.meta.json")
+
+
+def test_constants_for_option_choices():
+    assert bio.FILE_FORMATS == tuple(EXPECTED)
+    assert bio.ENDINGS == tuple(e for suffixes, _ in EXPECTED.values() for e in suffixes)
