@@ -136,6 +136,12 @@ class Table:
         """The table held by the bytes of a ``fmt`` file (see :func:`bsdf_tab.io.from_bytes`)."""
         return formats.from_bytes(data, fmt, factory=cls)
 
+    def as_stored(self, fmt: str) -> "Table":
+        """The table as a ``fmt`` file holds it: ``self`` unless the format changes values
+        (``half-exr``: float16 values, the rounding in the error channels and ``max_error``).
+        See :func:`bsdf_tab.io.as_stored`."""
+        return formats.as_stored(self, fmt, factory=type(self))
+
     def write_exr(self, path) -> None:
         """Write the table to an OpenEXR file (see :mod:`bsdf_tab.io.exr`)."""
         _exr_format.write_exr(self, path)

@@ -249,3 +249,14 @@ def test_npy_channels_by_stem_or_sidecar(tmp_path):
 def test_constants_for_option_choices():
     assert bio.FILE_FORMATS == tuple(EXPECTED)
     assert bio.ENDINGS == tuple(e for suffixes, _ in EXPECTED.values() for e in suffixes)
+
+
+def test_table_methods_delegate_to_the_registry(tmp_path):
+    table = make_table(7)
+    assert table.write(tmp_path / "t.npz") == [tmp_path / "t.npz"]
+    back = Table.read(tmp_path / "t.npz")
+    assert isinstance(back, Table) and back.meta == table.meta
+    np.testing.assert_array_equal(Table.from_bytes(table.to_bytes("json"), "json").channels["E"], table.channels["E"])
+    assert table.as_stored("npz") is table
+    half = table.as_stored("half-exr")
+    assert isinstance(half, Table) and half.channels["E"].dtype == np.float16
