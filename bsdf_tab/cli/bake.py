@@ -28,7 +28,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "-o", "--output",
-        help=f"output file ({', '.join(io.SPEC_FILE_ENDINGS)}); with no spec or --preset, the output folder "
+        help=f"output file ({', '.join(io.ENDINGS)}); with no spec or --preset, the output folder "
              "(default: luts/)",
     )
     parser.add_argument("--device", default=None, help="Warp device, for example cpu or cuda:0 (default: Warp's)")
@@ -37,8 +37,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default=None, help="bake an engine preset or group (see `bsdf-tab presets`) into -o DIR")
     parser.add_argument(
         "--format", default=None, choices=io.FILE_FORMATS,
-        help="file format (a spec file: default from the -o name, else exr; --preset: "
-             f"{', '.join(io.PRESET_FORMATS)})",
+        help="file format (a spec file: default from the -o name, else exr; --preset: default exr)",
     )
     parser.add_argument("--tol", type=float, default=None, help="a scene file: max lookup error (docs/scenes.md)")
 
@@ -64,7 +63,7 @@ def _output_format(out: Path, fmt: str | None) -> str:
     try:
         found = io.format_for(out)
     except ValueError:
-        raise CliError(f"output {out}: the name must end in {', '.join(io.SPEC_FILE_ENDINGS)}") from None
+        raise CliError(f"output {out}: the name must end in {', '.join(io.ENDINGS)}") from None
     if fmt is not None and fmt != found.name:
         raise CliError(f"--format {fmt} does not match the output {out.name} ({found.name}); "
                        f"use a name ending in {io.get_format(fmt).suffixes[0]}")
@@ -91,12 +90,18 @@ def _bake_one(args: argparse.Namespace) -> int:
         print(summary(out, table))
         return 0
     table = api.tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
-    try:
-        stored = io.write(table, out, fmt)
-    except ValueError as exc:  # e.g. values beyond the float16 range
-        raise CliError(f"output {out}: {exc}") from None
-    print(summary(out, stored))
+    _write(table, out, fmt)
+    print(summary(out, table.as_stored(fmt)))
     return 0
+
+
+def _write(table, out: Path, fmt: str) -> None:
+    try:
+        io.write(table, out, fmt)
+    except FileNotFoundError:
+        raise
+    except ValueError as exc:  # e.g. values beyond the float16 range (a FormatError is one too)
+        raise CliError(f"output {out}: {exc}") from None
 
 
 def _progress_bar(total: int, quiet: bool):
@@ -141,14 +146,11 @@ def _bake_preset(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CliError(str(exc)) from None
     fmt = args.format or "exr"
-    if fmt not in io.PRESET_FORMATS:
-        raise CliError(f"--format {fmt}: a preset is written as {', '.join(io.PRESET_FORMATS)}")
     out_dir = output_folder(args.output, "--preset")
     quiet_warp(args)
     for name in names:
         table = build_preset(name, device=args.device, workers=args.workers, progress=not args.quiet)
-        stem = name.replace("-", "_")
-        out = out_dir / (stem + io.get_format(fmt).suffixes[0])
-        stored = io.write(table, out, fmt)
-        print(summary(out, stored))
+        out = io.output_path(out_dir, name.replace("-", "_"), fmt)
+        _write(table, out, fmt)
+        print(summary(out, table.as_stored(fmt)))
     return 0

@@ -40,7 +40,7 @@ __all__ = ["STREAM_FORMATS", "StreamedTable", "can_stream", "write_blocks", "wri
 #: The formats :func:`write_blocks` writes.
 STREAM_FORMATS = ("exr", "npz")
 #: Bytes per chunk read back from the scratch file.
-CHUNK_BYTES = 8 << 20
+CHUNK_BYTES = 1 << 19
 
 
 class _Scratch:

@@ -1,14 +1,15 @@
 """Tests of the bsdf-tab command line (run in-process through cli.main)."""
 
 import json
-import sys
-import types
 
 import numpy as np
 import pytest
 
+import bsdf_tab.api
 from bsdf_tab import cli
-from bsdf_tab.exr import read_exr
+from bsdf_tab.cli import bake as bake_command
+from bsdf_tab.presets import default_specs
+from bsdf_tab import read_exr
 from bsdf_tab.spec import normalize_spec, resolve_axes, texel_count
 from bsdf_tab.table import Table
 
@@ -39,9 +40,7 @@ def fake_api(monkeypatch):
             progress(n, n)
         return hand_table(spec)
 
-    module = types.ModuleType("bsdf_tab.api")
-    module.tabulate = tabulate
-    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     return calls
 
 
@@ -111,9 +110,7 @@ def test_library_value_error_is_one_line(monkeypatch, tmp_path, capsys):
     def tabulate(spec, **kwargs):
         raise ValueError("tolerance cannot be reached\non this device")
 
-    module = types.ModuleType("bsdf_tab.api")
-    module.tabulate = tabulate
-    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
     code, _, err = run(capsys, "bake", str(spec))
@@ -124,9 +121,7 @@ def test_internal_error_no_traceback(monkeypatch, tmp_path, capsys):
     def tabulate(spec, **kwargs):
         raise RuntimeError("kernel exploded")
 
-    module = types.ModuleType("bsdf_tab.api")
-    module.tabulate = tabulate
-    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
     code, _, err = run(capsys, "bake", str(spec))
@@ -138,9 +133,7 @@ def test_keyboard_interrupt_exit_130(monkeypatch, tmp_path, capsys):
     def tabulate(spec, **kwargs):
         raise KeyboardInterrupt
 
-    module = types.ModuleType("bsdf_tab.api")
-    module.tabulate = tabulate
-    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
     code, _, err = run(capsys, "bake", str(spec))
@@ -201,7 +194,7 @@ def test_bake_output_option_and_formats(tmp_path, capsys, fake_api):
 
 
 def test_default_specs_content():
-    specs = dict(cli.default_specs())
+    specs = dict(default_specs())
     assert len(specs) == 7
     shapes = {name: tuple(len(a) for a in resolve_axes(s).values()) for name, s in specs.items()}
     assert shapes["ggx_albedo.exr"] == (32, 32)
@@ -227,7 +220,7 @@ def test_bake_default_set_with_fake_api(tmp_path, capsys, fake_api):
     code, out, err = run(capsys, "bake", "-o", str(out_dir))
     assert code == 0, err
     names = sorted(p.name for p in out_dir.iterdir())
-    assert names == sorted(name for name, _ in cli.default_specs())
+    assert names == sorted(name for name, _ in default_specs())
     assert all(callable(call["progress"]) for call in fake_api)
     assert read_exr(out_dir / "ggx_dfg.exr").shape == (128, 128)
     assert len(out.strip().splitlines()) == 7
@@ -251,9 +244,10 @@ def test_bake_tiny_spec_with_real_api(tmp_path, capsys):
 
 
 def test_bake_spec_file_to_every_export_format(tmp_path, capsys):
-    """A spec file can be written as half EXR, .npy files or a C header (by -o name or --format),
-    and the printed max error is that of what was written (half: with the float16 rounding)."""
-    from bsdf_tab.export import read_npy
+    """A spec file can be written as half EXR, .npy (one structured array), per-channel .npy
+    files or a C header (by -o name or --format), and the printed max error is that of what was
+    written (half: with the float16 rounding)."""
+    from bsdf_tab import io
 
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo", "axes": {"mu": [0.3, 1.0], "alpha": [0.2, 0.6]}, "tolerance": 1e-6}))
@@ -264,10 +258,15 @@ def test_bake_spec_file_to_every_export_format(tmp_path, capsys):
     # float16 spacing near E ~ 0.5-1 is 2^-11 or 2^-12: the rounding dominates the 1e-6 integration error
     assert printed == pytest.approx(float(half.channels["E_err"].astype(np.float64).max()), rel=5e-3)
     assert printed > 1e-5
+    code, out, err = run(capsys, "bake", str(spec), "--format", "npy-channels", "-o", str(tmp_path), "-q")
+    assert code == 0, err
+    table = io.read(tmp_path / "s.meta.json", factory=Table)
+    assert table.shape == (2, 2) and 1e-7 < float(out.strip().rsplit("E ", 1)[1]) <= 1e-6
     code, out, err = run(capsys, "bake", str(spec), "--format", "npy", "-o", str(tmp_path), "-q")
     assert code == 0, err
-    table = read_npy(tmp_path, "s")
-    assert table.shape == (2, 2) and 1e-7 < float(out.strip().rsplit("E ", 1)[1]) <= 1e-6
+    arr = np.load(tmp_path / "s.npy")  # plain numpy: one structured array, a field per channel
+    assert arr.shape == (2, 2) and set(arr.dtype.names) == {"E", "E_err"}
+    assert arr["E"][1, 1] == pytest.approx(table.channels["E"][1, 1], abs=1e-7)
     code, out, err = run(capsys, "bake", str(spec), "-o", str(tmp_path / "lut.h"), "-q")
     assert code == 0, err
     text = (tmp_path / "lut.h").read_text()
@@ -281,8 +280,6 @@ def test_bake_cli_option_errors_are_one_line(tmp_path, capsys):
     scene.write_text(json.dumps({"materials": [{"type": "schlick", "f0": 0.04, "alpha": 0.2}], "tolerance": 0.01}))
     code, _, err = run(capsys, "bake", str(scene), "--format", "npy", "-o", str(tmp_path / "o"))
     assert_one_line_error(code, err, "--format", "scene")
-    code, _, err = run(capsys, "bake", "--preset", "cycles-ggx-E", "--format", "json", "-o", str(tmp_path / "p"))
-    assert_one_line_error(code, err, "--format json")
     code, _, err = run(capsys, "bake", "--format", "npy", "-o", str(tmp_path / "d"))
     assert_one_line_error(code, err, "--format")
 
@@ -328,10 +325,8 @@ def test_default_set_progress_never_goes_backwards(tmp_path, capsys, monkeypatch
             progress(done, 3 * n)
         return hand_table(spec)
 
-    module = types.ModuleType("bsdf_tab.api")
-    module.tabulate = tabulate
-    monkeypatch.setitem(sys.modules, "bsdf_tab.api", module)
-    monkeypatch.setattr(cli, "_progress_bar", Bar)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
+    monkeypatch.setattr(bake_command, "_progress_bar", Bar)
     assert run(capsys, "bake", "-o", str(tmp_path / "luts"))[0] == 0
     assert updates and min(updates) >= 0
-    assert sum(updates) == sum(texel_count(normalize_spec(s)) for _, s in cli.default_specs())
+    assert sum(updates) == sum(texel_count(normalize_spec(s)) for _, s in default_specs())

@@ -281,7 +281,7 @@ def small_presets(monkeypatch):
         monkeypatch.setitem(PRESETS, name, dataclasses.replace(PRESETS[name], axes=axes))
 
 
-@pytest.mark.parametrize("fmt,suffix", [("exr", ".exr"), ("half-exr", ".half.exr"), ("npy", ".energy_complement.npy"),
+@pytest.mark.parametrize("fmt,suffix", [("exr", ".exr"), ("half-exr", ".half.exr"), ("npy", ".npy"), ("npy-channels", ".meta.json"),
                                         ("h", ".h")])
 def test_cli_bake_preset_formats(capsys, tmp_path, small_presets, fmt, suffix):
     code, out, err = run(capsys, "bake", "--preset", "openpbr-ideal-metal", "-o", str(tmp_path), "--format", fmt, "-q")

@@ -12,7 +12,7 @@ pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
 from bsdf_tab import Table, normalize_spec, spec_hash, __version__  # noqa: E402
-from bsdf_tab.exr import read_exr_bytes  # noqa: E402
+from bsdf_tab.table import Table  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.settings import Settings  # noqa: E402
 
@@ -86,7 +86,7 @@ def test_get_table_exr_by_default(client):
     assert r.headers["content-type"] == "image/x-exr"
     assert int(r.headers["content-length"]) == len(r.content)
     assert r.content[:4] == b"\x76\x2f\x31\x01"
-    table = read_exr_bytes(r.content)
+    table = Table.from_bytes(r.content, "exr")
     assert table.shape == (3, 3)
     np.testing.assert_array_equal(table.axes["mu"], [0.2, 0.6, 1.0])
     assert 0.0 < float(table.channels["E"].min()) and float(table.channels["E"].max()) <= 1.0 + 1e-6
@@ -130,7 +130,7 @@ def test_formats_by_query_or_accept(client, how, fmt, ctype):
 
 
 def test_formats_agree(client):
-    exr = read_exr_bytes(client.get(f"/tables/albedo?{SMALL}").content)
+    exr = Table.from_bytes(client.get(f"/tables/albedo?{SMALL}").content, "exr")
     npz = Table.from_npz_bytes(client.get(f"/tables/albedo?{SMALL}&format=npz").content)
     js = client.get(f"/tables/albedo?{SMALL}&format=json").json()
     np.testing.assert_array_equal(exr.channels["E"], npz.channels["E"].astype(np.float32))

@@ -11,7 +11,7 @@ pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
 import service.compute  # noqa: E402
-from bsdf_tab.exr import read_exr_bytes  # noqa: E402
+from bsdf_tab.table import Table  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.cache import MAGIC, DiskCache, table_key  # noqa: E402
 from service.settings import Settings  # noqa: E402
@@ -178,7 +178,7 @@ def test_corrupt_cache_file_is_recomputed_never_served(tmp_path, counted):
         third = client.get(url)
         assert third.status_code == 200 and third.content == first.content
         assert len(counted) == 2
-        read_exr_bytes(third.content)  # a valid EXR
+        Table.from_bytes(third.content, "exr")  # a valid EXR
         assert client.get("/healthz").json()["cache"]["corrupt"] == 3  # exr, then exr + master
     # a fresh process on the same folder serves the repaired entry without computing
     with TestClient(create_app(settings)) as client:

@@ -16,7 +16,7 @@ import pytest
 
 pytest.importorskip("uvicorn")
 
-from bsdf_tab.exr import read_exr_bytes  # noqa: E402
+from bsdf_tab.table import Table  # noqa: E402
 
 
 def _free_port() -> int:
@@ -74,7 +74,7 @@ def test_fetch_table_over_a_socket(server):
     assert status == 200
     assert headers["content-type"] == "image/x-exr"
     assert int(headers["content-length"]) == len(body)
-    table = read_exr_bytes(body)
+    table = Table.from_bytes(body, "exr")
     assert table.shape == (3, 4)
     status304, _, empty = _get(server, "/tables/albedo?mu=0.2,0.6,1&alpha_size=4", {"If-None-Match": headers["etag"]})
     assert status304 == 304 and empty == b""

@@ -1,6 +1,6 @@
 """The ``bsdf`` table: point values against the independent NumPy reference, reciprocity, the
 half/difference parametrization against plain angles, integration back to ``albedo``, and the
-streaming bake against the in-memory table."""
+streamed bake (blocks through ``bsdf_tab.io``) against the reference."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ import pytest
 
 import bsdf_tab
 from bsdf_tab.errors import SpecError
-from bsdf_tab.exr import read_exr
+from bsdf_tab import io as bsdf_io
+from bsdf_tab import read_exr
 from bsdf_tab.spec import normalize_spec, resolve_axes
 from bsdf_tab.table import Table
-from bsdf_tab.tables.bsdf import bake_bsdf_streaming
 from tests.reference import microfacet_ref as ref
 
 HALF_PI = 0.5 * math.pi
@@ -255,37 +255,56 @@ STREAM_SPEC = spec_of("ggx", "correlated", {"type": "dielectric", "eta": 1.5}, 0
                       {"theta_h": {"size": 12}, "theta_d": {"size": 10}, "phi_d": {"size": 16}}, "half_diff")
 
 
-def test_streaming_exr_equals_in_memory(tmp_path):
-    mem = tab(STREAM_SPEC)
-    mem.write_exr(tmp_path / "mem.exr")
+def stream_reference(spec):
+    """f_r, f_t of STREAM_SPEC's grid from the reference, at directions written here (half_diff)."""
+    axes = resolve_axes(spec)
+    th, td, pd = np.meshgrid(axes["theta_h"], axes["theta_d"], axes["phi_d"], indexing="ij")
+    # Rusinkiewicz 1998 with phi_h = 0: h = (sin th, 0, cos th); d = w_i in the frame of h
+    h = np.stack([np.sin(th), 0 * th, np.cos(th)], -1)
+    d = np.stack([np.sin(td) * np.cos(pd), np.sin(td) * np.sin(pd), np.cos(td)], -1)
+    wi = np.stack([np.cos(th) * d[..., 0] + np.sin(th) * d[..., 2], d[..., 1],
+                   -np.sin(th) * d[..., 0] + np.cos(th) * d[..., 2]], -1)
+    wr = 2.0 * np.sum(wi * h, -1, keepdims=True) * h - wi
+    return ref.f_r(wi, wr, spec["alpha"], spec["distribution"], spec["shadowing"], ("dielectric", 1.5))
+
+
+def test_streaming_exr_is_right_and_bounded_by_blocks(tmp_path):
     calls = []
-    res = bake_bsdf_streaming(STREAM_SPEC, tmp_path / "stream.exr", device="cpu", block_texels=300,
-                              progress=lambda done, total: calls.append((done, total)))
-    a, b = read_exr(tmp_path / "mem.exr"), read_exr(tmp_path / "stream.exr")
-    assert list(a.axes) == list(b.axes) and all(np.array_equal(a.axes[n], b.axes[n]) for n in a.axes)
-    assert list(a.channels) == list(b.channels)
-    assert all(np.array_equal(a.channels[c], b.channels[c]) for c in a.channels)
-    assert a.meta == b.meta and res.max_error() == mem.max_error()
+    stream = bsdf_tab.iter_blocks(STREAM_SPEC, device="cpu", block_texels=300,
+                                  progress=lambda done, total: calls.append((done, total)))
+    res = bsdf_io.write_stream(stream, tmp_path / "stream.exr")
+    got = read_exr(tmp_path / "stream.exr")
+    want = stream_reference(STREAM_SPEC)
+    # float32 storage on top of the float64 rounding bound
+    check_against(got.channels["f_r"].astype(np.float64), got.channels["f_r_err"].astype(np.float64)
+                  + 2.0**-23 * np.abs(want), want)
+    assert got.meta["spec"] == normalize_spec(STREAM_SPEC)
+    for c in ("f_r", "f_t"):  # the header's max error is the largest error the file holds
+        assert res.max_error()[c] == pytest.approx(float(got.channels[c + "_err"].max()), rel=1e-6)
     assert calls[-1][0] == calls[-1][1] == 12 * 10 * 16 and len(calls) >= 6  # 160-texel slices, 300/block
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["mem.exr", "stream.exr"]  # no scratch left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stream.exr"]  # no scratch left
 
 
-def test_streaming_npz_equals_in_memory(tmp_path):
-    mem = tab(STREAM_SPEC)
-    bake_bsdf_streaming(STREAM_SPEC, tmp_path / "t.npz", device="cpu", block_texels=500)
-    got = Table.from_npz_bytes((tmp_path / "t.npz").read_bytes())
-    assert all(np.array_equal(mem.channels[c], got.channels[c]) for c in mem.channels)
-    assert got.meta == json.loads(json.dumps(mem.meta, default=float))
+def test_streaming_npz_is_right(tmp_path):
+    bsdf_io.write_stream(bsdf_tab.iter_blocks(STREAM_SPEC, device="cpu", block_texels=500), tmp_path / "t.npz")
+    got = Table.from_bytes((tmp_path / "t.npz").read_bytes(), "npz")
+    want = stream_reference(STREAM_SPEC)
+    check_against(got.channels["f_r"], got.channels["f_r_err"], want)  # float64: the rounding bound alone
+    assert list(got.axes) == ["theta_h", "theta_d", "phi_d"] and got.channels["f_r"].shape == (12, 10, 16)
 
 
 def test_streaming_memory_is_bounded(tmp_path):
     spec = spec_of("ggx", "correlated", {"type": "dielectric", "eta": 1.5}, 0.3,
                    {"theta_i": {"size": 48}, "theta_o": {"size": 48}, "phi_d": {"size": 64}})
     full = 4 * 8 * 48 * 48 * 64  # bytes of the in-memory float64 channels (4.7 MB)
-    bake_bsdf_streaming(spec, tmp_path / "warm.exr", device="cpu", block_texels=4096)  # compile first
+
+    def bake(name):
+        bsdf_io.write_stream(bsdf_tab.iter_blocks(spec, device="cpu", block_texels=4096), tmp_path / name)
+
+    bake("warm.exr")  # compile first
     tracemalloc.start()
     try:
-        bake_bsdf_streaming(spec, tmp_path / "t.exr", device="cpu", block_texels=4096)
+        bake("t.exr")
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
