@@ -15,8 +15,9 @@ from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
 
 from bsdf_tab import __version__
+from bsdf_tab.api import quiet_warp
 
-from .compute import TableStore, quiet_warp
+from .compute import TableStore
 from .errors import install_handlers
 from .routes import pages, scenes, tables
 from .settings import Settings

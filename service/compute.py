@@ -43,21 +43,11 @@ from .cache import DiskCache, SingleFlight, table_key
 from .errors import ServiceError
 from .settings import Settings
 
-__all__ = ["TableStore", "Prepared", "quiet_warp"]
+__all__ = ["TableStore", "Prepared"]
 
 log = logging.getLogger("bsdf_tab.service")
 
 MASTER = "npz"
-
-
-def quiet_warp() -> None:
-    """Keep Warp's module-load messages off stdout (the server log)."""
-    try:
-        import warp
-    except ImportError:  # pragma: no cover
-        return
-    warp.config.log_level = getattr(warp, "LOG_WARNING", 30)
-    warp.config.quiet = True
 
 
 @dataclass(frozen=True)

@@ -39,17 +39,15 @@ from bsdf_tab.spec import (
     ROUGHNESS_SLOT,
     SHADOWINGS,
     SPACINGS,
+    DEFAULT_BSDF_ALPHA,
+    KIND_KEYS,
+    SCALAR_PARAMS as MATERIAL_SCALARS,
     TABLE_KINDS,
     TOLERANCE_RANGE,
 )
 
-from bsdf_tab import spec as _spec_module
-
 from .errors import ServiceError
 
-#: Top-level parameters that only some kinds take (``TABLE_KINDS[kind]["params"]``), for example
-#: the ``bsdf`` table's scalar ``alpha`` / ``roughness`` and its ``parametrization``.
-KIND_KEYS: tuple[str, ...] = tuple(getattr(_spec_module, "KIND_KEYS", ()))
 
 __all__ = [
     "FORMATS",
@@ -313,13 +311,13 @@ def catalog(settings) -> dict:
             "error_channels": [f"{c}_err" for c in info["channels"]],
             "fresnel": fresnel,
             "url": f"/tables/{kind}",
-            "methods": sorted(info.get("methods", getattr(_spec_module, "METHODS", METHODS))),
+            "methods": sorted(info.get("methods", METHODS)),
         }
         if info.get("params"):
             entry["params"] = {
                 name: (
-                    {"type": "number", "range": list(getattr(_spec_module, "SCALAR_PARAMS", {}).get(name, ())),
-                     "default": getattr(_spec_module, "DEFAULT_BSDF_ALPHA", None) if name == "alpha" else None,
+                    {"type": "number", "range": list(MATERIAL_SCALARS.get(name, ())),
+                     "default": DEFAULT_BSDF_ALPHA if name == "alpha" else None,
                      "query_param": name}
                     if name != "parametrization"
                     else {"type": "string", "enum": list(info.get("parametrizations", {})), "query_param": name}
@@ -338,7 +336,7 @@ def catalog(settings) -> dict:
         "parameters": {
             "distribution": {"type": "string", "enum": sorted(DISTRIBUTIONS), "default": "ggx"},
             "shadowing": {"type": "string", "enum": sorted(SHADOWINGS), "default": "correlated"},
-            "method": {"type": "string", "enum": sorted(getattr(_spec_module, "METHODS", METHODS)), "default": "adaptive",
+            "method": {"type": "string", "enum": sorted(METHODS), "default": "adaptive",
                        "note": "a table kind may take only its own methods (tables.<kind>.methods)"},
             "tolerance": {
                 "type": "number", "min": TOLERANCE_RANGE[0], "max": TOLERANCE_RANGE[1], "default": DEFAULT_TOLERANCE,
@@ -369,43 +367,43 @@ def catalog(settings) -> dict:
     }
 
 
-def _p(name: str, schema: dict, description: str) -> dict:
+def query_param(name: str, schema: dict, description: str) -> dict:
     return {"name": name, "in": "query", "required": False, "schema": schema, "description": description}
 
 
 def query_parameters(extra: Iterable[dict] = ()) -> list[dict]:
     """OpenAPI ``parameters`` for the query scheme (documentation, and the fuzz tests' source)."""
     out = [
-        _p("distribution", {"type": "string", "enum": sorted(DISTRIBUTIONS)}, "microfacet distribution"),
-        _p("shadowing", {"type": "string", "enum": sorted(SHADOWINGS)}, "shadowing-masking form"),
-        _p("method", {"type": "string"}, "integration method (see GET /tables for each table's)"),
-        _p("tolerance", {"type": "number"}, f"target absolute error, in {list(TOLERANCE_RANGE)}"),
-        _p("effort", {"type": "integer", "minimum": 8, "maximum": MAX_EFFORT},
+        query_param("distribution", {"type": "string", "enum": sorted(DISTRIBUTIONS)}, "microfacet distribution"),
+        query_param("shadowing", {"type": "string", "enum": sorted(SHADOWINGS)}, "shadowing-masking form"),
+        query_param("method", {"type": "string"}, "integration method (see GET /tables for each table's)"),
+        query_param("tolerance", {"type": "number"}, f"target absolute error, in {list(TOLERANCE_RANGE)}"),
+        query_param("effort", {"type": "integer", "minimum": 8, "maximum": MAX_EFFORT},
            "samples or nodes per texel of a fixed-effort method (not adaptive)"),
-        _p("fresnel", {"type": "string", "enum": sorted(FRESNEL_TYPES)}, "Fresnel type"),
+        query_param("fresnel", {"type": "string", "enum": sorted(FRESNEL_TYPES)}, "Fresnel type"),
     ]
-    out += [_p(f"fresnel_{p}", {"type": "number"}, f"Fresnel parameter {p}") for p in FRESNEL_PARAMS]
+    out += [query_param(f"fresnel_{p}", {"type": "number"}, f"Fresnel parameter {p}") for p in FRESNEL_PARAMS]
     out += [
-        _p(k, {"type": "string"}, f"table parameter {k} (only tables that take it, see GET /tables)")
+        query_param(k, {"type": "string"}, f"table parameter {k} (only tables that take it, see GET /tables)")
         for k in KIND_KEYS
         if k not in AXIS_NAMES
     ]
     for axis in AXIS_NAMES:
         out += [
-            _p(axis, {"type": "string", "pattern": r"^[-+0-9.eE,]+$"}, f"explicit {axis} values, comma-separated, increasing"
+            query_param(axis, {"type": "string", "pattern": r"^[-+0-9.eE,]+$"}, f"explicit {axis} values, comma-separated, increasing"
                + (" (for a table that takes a scalar {axis}, that scalar)" if axis in KIND_KEYS else "")),
-            _p(f"{axis}_size", {"type": "integer", "minimum": 1, "maximum": MAX_AXIS_SIZE}, f"{axis} resolution"),
-            _p(f"{axis}_spacing", {"type": "string", "enum": list(SPACINGS)}, f"{axis} spacing"),
-            _p(f"{axis}_nodes", {"type": "string", "enum": list(NODES)}, f"{axis} node placement"),
-            _p(f"{axis}_min", {"type": "number"}, f"{axis} range low end"),
-            _p(f"{axis}_max", {"type": "number"}, f"{axis} range high end"),
-            _p(f"{axis}_clamp", {"type": "string"}, f"clamp resolved {axis} values to lo,hi"),
+            query_param(f"{axis}_size", {"type": "integer", "minimum": 1, "maximum": MAX_AXIS_SIZE}, f"{axis} resolution"),
+            query_param(f"{axis}_spacing", {"type": "string", "enum": list(SPACINGS)}, f"{axis} spacing"),
+            query_param(f"{axis}_nodes", {"type": "string", "enum": list(NODES)}, f"{axis} node placement"),
+            query_param(f"{axis}_min", {"type": "number"}, f"{axis} range low end"),
+            query_param(f"{axis}_max", {"type": "number"}, f"{axis} range high end"),
+            query_param(f"{axis}_clamp", {"type": "string"}, f"clamp resolved {axis} values to lo,hi"),
         ]
     out += list(extra)
     return out
 
 
-FORMAT_PARAM = _p("format", {"type": "string", "enum": list(FORMATS)}, "response format (default exr; or use Accept)")
+FORMAT_PARAM = query_param("format", {"type": "string", "enum": list(FORMATS)}, "response format (default exr; or use Accept)")
 
 
 def spec_json_schema() -> dict:

@@ -14,7 +14,7 @@ from ..errors import ServiceError
 from ..params import (
     FORMAT_PARAM,
     MEDIA_TYPES,
-    _p,
+    query_param,
     catalog,
     negotiate,
     only_params,
@@ -40,9 +40,9 @@ _TABLE_RESPONSES = {
     503: {"description": "too many computations queued; retry later", **_ERR},
 }
 PREVIEW_PARAMS = [
-    _p("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
-    _p("slice", {"type": "integer"}, "3-D tables: index along slice_axis (default: the middle)"),
-    _p("slice_axis", {"type": "string"}, "3-D tables: the axis held fixed (default: the last axis)"),
+    query_param("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
+    query_param("slice", {"type": "integer"}, "3-D tables: index along slice_axis (default: the middle)"),
+    query_param("slice_axis", {"type": "string"}, "3-D tables: the axis held fixed (default: the last axis)"),
 ]
 
 
