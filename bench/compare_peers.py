@@ -38,29 +38,12 @@ OUT = ROOT / "bench" / "out"
 if str(ROOT) not in sys.path:  # the checkout's bsdf_tab, as for bench/accuracy.py
     sys.path.insert(0, str(ROOT))
 
-from bsdf_tab import normalize_spec  # noqa: E402
 from bsdf_tab.presets import PRESETS, build_preset  # noqa: E402
-from bsdf_tab.spec import canonical_json  # noqa: E402
 from bsdf_tab.table import Table  # noqa: E402
 
 
 def anchors_dir() -> Path:
     return Path(os.environ.get("BSDF_TAB_ANCHORS") or (ROOT.parent / "shared" / "anchors"))
-
-
-def memo_tabulate():
-    """tabulate() with a cache by canonical spec (presets that share a computation reuse it)."""
-    from bsdf_tab import tabulate
-
-    cache: dict[str, Table] = {}
-
-    def run(spec, **kwargs):
-        key = canonical_json(normalize_spec(spec))
-        if key not in cache:
-            cache[key] = tabulate(spec, **kwargs)
-        return cache[key]
-
-    return run
 
 
 def interior_mask(name: str, shape: tuple[int, ...], axes: list[str]) -> np.ndarray:
@@ -157,7 +140,6 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     names = [n for n, p in PRESETS.items() if p.anchor and (args.only is None or n in args.only)]
     cache_dir = OUT / "presets"
     cache_dir.mkdir(parents=True, exist_ok=True)
-    tabulate = memo_tabulate()
     results, skipped = [], []
     for name in names:
         preset = PRESETS[name]
@@ -170,7 +152,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         if args.reuse and cached.exists():
             table = Table.from_npz_bytes(cached.read_bytes())
         else:
-            table = build_preset(name, device=args.device, workers=args.workers, tabulate=tabulate)
+            table = build_preset(name, device=args.device, workers=args.workers)
             cached.write_bytes(table.to_npz_bytes())
         seconds = time.perf_counter() - t0
         row = compare(name, table, np.load(anchor).astype(np.float64), anchors)
