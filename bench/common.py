@@ -141,9 +141,10 @@ def run_method(method: str, effort, case: Case, mu, alpha, eta, workers=None, de
     tables are stored as float32: the sweep measures errors down to 1e-10.
     """
     from bsdf_tab.integrate import get_method
+    from bsdf_tab.model import FRESNEL_ONE
 
     fn = get_method(method)
-    kw = dict(dist=distribution_id(case.dist), shadowing=shadowing_id(case.shadowing), ftype=0,
+    kw = dict(dist=distribution_id(case.dist), shadowing=shadowing_id(case.shadowing), ftype=int(FRESNEL_ONE),
               device=device, workers=workers)
     if method == "adaptive":
         v, e, cost = fn(case.mode, mu, alpha, eta, tol=float(effort), return_cost=True, **kw)
