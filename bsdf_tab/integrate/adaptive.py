@@ -33,6 +33,14 @@ carried through the outer weights; floored at 1e-10. Rule applications are cappe
 (``max_rules_outer``, ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance
 within the cap reports its large estimate instead of a wrong small one.
 
+Where the pieces live: the integrand and the mirror limit alpha = 0 in
+:mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the D cos CDF
+v(theta_m) and its inverse in each distribution's module (:func:`bsdf_tab.model.dcos_tan_of_v`,
+:func:`bsdf_tab.model.dcos_v_of_theta`); the G7-K15 constants, the error model and the global
+bisection (one routine, instantiated for the inner phi and the outer v level) in
+:mod:`bsdf_tab.integrate.quadrature`. This module holds the two rules, the breakpoints, the
+kernel and its launcher.
+
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
 Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
 """
@@ -44,135 +52,29 @@ import math
 import numpy as np
 import warp as wp
 
-from ..model.distribution import BECKMANN, lambda_cos
-from ..model.fresnel import fresnel, fresnel_dielectric
-from ..model.frame import expm1_, log1p_, refract_k2
-from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
+from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
+from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
+    MODE_DFG,
+    MODE_DIELECTRIC,
+    MODE_REFLECT,
+    MODES,
+    TexelParams,
+    begin_texel,
+    integrand_phi,
+    mode_id,
+)
+from .quadrature import WG7_D, WGK_D, XGK_D, gk_error, make_global_bisection
+from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
 
-# integrand families
-MODE_REFLECT = wp.constant(0)  # channel 0: int F G D (i.m)/mu     (albedo)
-MODE_DIELECTRIC = wp.constant(1)  # channels R, T (exact dielectric Fresnel, eta per texel)
-MODE_DFG = wp.constant(2)  # channels A, B: split-sum weights (1 - (1-c)^5), (1-c)^5, F = 1
-
-MODES = {"reflect": 0, "dielectric": 1, "dfg": 2}
-
-_vec8d = wp.types.vector(length=8, dtype=wp.float64)
-_STACK = 64
-_stackd = wp.types.vector(length=_STACK, dtype=wp.float64)
+_vec5d = wp.types.vector(length=5, dtype=wp.float64)
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)
 _vec16d = wp.types.vector(length=16, dtype=wp.float64)
 _vec24d = wp.types.vector(length=24, dtype=wp.float64)
 _vec32d = wp.types.vector(length=32, dtype=wp.float64)
 
-# Gauss-Kronrod 15-point abscissae on [-1, 1] (positive half, centre last) and weights;
-# Gauss 7-point weights for the odd Kronrod abscissae and the centre (QUADPACK qk15).
-_XGK = wp.constant(
-    _vec8d(
-        0.991455371120812639206854697526329,
-        0.949107912342758524526189684047851,
-        0.864864423359769072789712788640926,
-        0.741531185599394439863864773280788,
-        0.586087235467691130294144845693013,
-        0.405845151377397166906606412076961,
-        0.207784955007898467600689403773245,
-        0.0,
-    )
-)
-_WGK = wp.constant(
-    _vec8d(
-        0.022935322010529224963732008058970,
-        0.063092092629978553290700663189204,
-        0.104790010322250183839876322541518,
-        0.140653259715525918745189590510238,
-        0.169004726639267902826583426598550,
-        0.190350578064785409913256402421014,
-        0.204432940075298892414161999234649,
-        0.209482141084727828012999174891714,
-    )
-)
-_WG = wp.constant(
-    _vec8d(
-        0.0,
-        0.129484966168869693270611432679082,
-        0.0,
-        0.279705391489276667901467771423780,
-        0.0,
-        0.381830050505118944950369775488975,
-        0.0,
-        0.417959183673469387755102040816327,
-    )
-)
-
-
 _PI = wp.constant(wp.float64(math.pi))
 _ERR_FLOOR = wp.constant(wp.float64(1.0e-10))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
-
-
-@wp.struct
-class TexelParams:
-    """What the integrand needs besides the integration variables.
-
-    Deliberately a copy of ``_fixed.Tex`` (plus err_model) with its own integrand below rather
-    than a call into ``_fixed.m_terms``: the extra call level passing the struct by value cost
-    ~30% of the integrand time (68 against 51 ns per evaluation, measured)."""
-
-    mode: wp.int32
-    dist: wp.int32
-    shadowing: wp.int32
-    ftype: wp.int32
-    fp0: wp.float64
-    fp1: wp.float64
-    mu: wp.float64
-    sin_i: wp.float64
-    alpha: wp.float64
-    eta: wp.float64
-    li: wp.float64  # mu * Lambda(mu)
-    err_model: wp.int32  # 0: |K15 - G7|, 1: QUADPACK rescaling
-
-
-@wp.func
-def _integrand(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
-    """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi)."""
-    zero = wp.float64(0.0)
-    one = wp.float64(1.0)
-    cp = wp.cos(phi)
-    c = p.sin_i * sm * cp + p.mu * cm
-    out = wp.vec2d(zero, zero)
-    if c <= zero:
-        # chi+(i.m): i sees the back of the micro-facet
-        return out
-    # (i.m) / cos(theta_m), written without the division
-    jac = p.sin_i * tm * cp + p.mu
-    zo = wp.float64(2.0) * c * cm - p.mu
-    if zo > zero:
-        lo = lambda_cos(zo, p.alpha, p.dist)
-        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, zo, lo, p.shadowing) * jac
-        if p.mode == MODE_DFG:
-            w = one - c
-            w5 = w * w * w * w * w
-            out = wp.vec2d(g * (one - w5), g * w5)
-        elif p.mode == MODE_DIELECTRIC:
-            out = wp.vec2d(fresnel_dielectric(c, p.eta) * g, zero)
-        else:
-            out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
-    if p.mode == MODE_DIELECTRIC:
-        k2 = refract_k2(c, p.eta)
-        if k2 > zero:
-            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta, with c/eta - sqrt(k2)
-            # rationalized so that its sign is exact near eta = 1 (it is 0 at eta = 1)
-            d = (one - p.eta) * (one + p.eta) / (p.eta * p.eta) / (c / p.eta + wp.sqrt(k2))
-            zt = d * cm - p.mu / p.eta
-            g = zero
-            if zt < zero:
-                azt = -zt
-                lt = lambda_cos(azt, p.alpha, p.dist)
-                g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azt, lt, p.shadowing) * jac
-            elif d == zero and p.mu == zero:
-                # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
-                g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
-            out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
-    return out
 
 
 @wp.func
@@ -183,23 +85,14 @@ def _phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
 
 
 @wp.func
-def _gk_error(rk: wp.vec2d, rg: wp.vec2d, resasc: wp.vec2d, err_model: wp.int32):
-    """Error estimate of the K15 value from |K15 - G7| (err_model 0), or QUADPACK's rescaling
-    resasc min(1, (200 |K - G| / resasc)^1.5) (err_model 1), floored at 50 ulp of |K|."""
-    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for c in range(2):
-        d = wp.abs(rk[c] - rg[c])
-        e = d
-        if err_model == 1 and resasc[c] > wp.float64(0.0) and d > wp.float64(0.0):
-            e = resasc[c] * wp.min(wp.float64(1.0), wp.pow(wp.float64(200.0) * d / resasc[c], wp.float64(1.5)))
-        out[c] = wp.max(e, wp.float64(1.1e-14) * wp.abs(rk[c]))
-    return out
-
-
-@wp.func
-def _gk_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: wp.float64, b: wp.float64,
-            ta: wp.float64, tb: wp.float64):
-    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3). Returns (K, error)."""
+def _gk_phi(p: TexelParams, x: _vec5d, ta: wp.float64, tb: wp.float64):
+    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b)
+    (cos, sin, tan of theta_m and the piece). Returns (K, error, 1): one rule application."""
+    cm = x[0]
+    sm = x[1]
+    tm = x[2]
+    a = x[3]
+    b = x[4]
     half = wp.float64(0.5)
     ctr = half * (ta + tb)
     hl = half * (tb - ta)
@@ -213,79 +106,27 @@ def _gk_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: w
         if j >= 8:
             jj = j - 8
             sgn = wp.float64(-1.0)
-        t = ctr + sgn * hl * _XGK[jj]
+        t = ctr + sgn * hl * XGK_D[jj]
         s = t * t * (wp.float64(3.0) - wp.float64(2.0) * t)
         ds = wp.float64(6.0) * t * (wp.float64(1.0) - t)
-        f = _integrand(p, cm, sm, tm, a + (b - a) * s) * (ds * (b - a))
+        f = integrand_phi(p, cm, sm, tm, a + (b - a) * s) * (ds * (b - a))
         f0[j] = f[0]
         f1[j] = f[1]
-        rk += _WGK[jj] * f
-        rg += _WG[jj] * f
+        rk += WGK_D[jj] * f
+        rg += WG7_D[jj] * f
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
         jj = j
         if j >= 8:
             jj = j - 8
-        resasc += _WGK[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
-    return rk * hl, _gk_error(rk * hl, rg * hl, resasc * hl, p.err_model)
+        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model), int(1)
 
 
-@wp.func
-def _adaptive_piece(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, a: wp.float64,
-                    b: wp.float64, tol: wp.float64, max_rules: wp.int32):
-    """Globally adaptive G7-K15 over one phi piece: bisect the worst interval until the summed
-    error of both channels is below ``tol`` (absolute), or ``max_rules`` rule applications or the
-    interval capacity are used (the estimates then still count: the error stays honest)."""
-    ia = _stackd()
-    ib = _stackd()
-    v0 = _stackd()
-    v1 = _stackd()
-    e0 = _stackd()
-    e1 = _stackd()
-    k, e = _gk_phi(p, cm, sm, tm, a, b, wp.float64(0.0), wp.float64(1.0))
-    ia[0] = wp.float64(0.0)
-    ib[0] = wp.float64(1.0)
-    v0[0] = k[0]
-    v1[0] = k[1]
-    e0[0] = e[0]
-    e1[0] = e[1]
-    n = int(1)
-    used = int(1)
-    te0 = e[0]
-    te1 = e[1]
-    while (te0 > tol or te1 > tol) and used + 2 <= max_rules and n < _STACK:
-        j = int(0)
-        worst = wp.float64(-1.0)
-        for q in range(n):
-            w = wp.max(e0[q], e1[q])
-            if w > worst:
-                worst = w
-                j = q
-        mid = wp.float64(0.5) * (ia[j] + ib[j])
-        kl, el = _gk_phi(p, cm, sm, tm, a, b, ia[j], mid)
-        kr, er = _gk_phi(p, cm, sm, tm, a, b, mid, ib[j])
-        used += 2
-        te0 += el[0] + er[0] - e0[j]
-        te1 += el[1] + er[1] - e1[j]
-        ia[n] = mid
-        ib[n] = ib[j]
-        v0[n] = kr[0]
-        v1[n] = kr[1]
-        e0[n] = er[0]
-        e1[n] = er[1]
-        ib[j] = mid
-        v0[j] = kl[0]
-        v1[j] = kl[1]
-        e0[j] = el[0]
-        e1[j] = el[1]
-        n += 1
-    total = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    err = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for q in range(n):
-        total += wp.vec2d(v0[q], v1[q])
-        err += wp.vec2d(e0[q], e1[q])
-    return total, err, used
+# globally adaptive G7-K15 over one phi piece (t in [0, 1]): bisect the worst interval until the
+# summed error of both channels is below the piece's share of the inner tolerance
+_adaptive_piece = make_global_bisection(_gk_phi)
 
 
 @wp.func
@@ -377,7 +218,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
     ss = p.sin_i * sm
     if ss <= wp.float64(1.0e-300):
         # i.m does not depend on phi (normal incidence or m = n): constant integrand
-        f = _integrand(p, cm, sm, tm, wp.float64(0.5) * pi)
+        f = integrand_phi(p, cm, sm, tm, wp.float64(0.5) * pi)
         return f * pi, err, int(1)
     c_min = p.mu * cm - ss
     c_max = p.mu * cm + ss
@@ -425,7 +266,8 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
             # phi increases as i.m decreases: this piece and all later ones are empty
             break
         if b > a:
-            r, e, used = _adaptive_piece(p, cm, sm, tm, a, b, tol * (b - a) / pi, max_rules)
+            r, e, used = _adaptive_piece(p, _vec5d(cm, sm, tm, a, b), wp.vec2d(zero, one), 1,
+                                         tol * (b - a) / pi, max_rules)
             total += r
             err += e
             rules += used
@@ -434,34 +276,13 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
 
 
 @wp.func
-def _theta_of_v(p: TexelParams, v: wp.float64):
-    """tan(theta_m) for outer variable v, where u = 1 - (1 - v)^2 is the D cos CDF."""
-    one = wp.float64(1.0)
-    w = one - v
-    if p.dist == BECKMANN:
-        # u = 1 - exp(-tan^2 / alpha^2)  =>  tan^2 = -alpha^2 log((1 - v)^2)
-        return p.alpha * wp.sqrt(wp.max(wp.float64(0.0), wp.float64(-2.0) * log1p_(-v)))
-    # GGX: u = tan^2 / (alpha^2 + tan^2)  =>  tan = alpha sqrt(u) / (1 - v)
-    return p.alpha * wp.sqrt(v * (wp.float64(2.0) - v)) / w
+def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
+    """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v), x = (tol_in, max_rules_inner).
 
-
-@wp.func
-def _v_of_theta(p: TexelParams, theta: wp.float64):
-    """Inverse of :func:`_theta_of_v` (theta in [0, pi/2])."""
-    one = wp.float64(1.0)
-    if theta >= _HALF_PI:
-        return one
-    c = wp.cos(theta)
-    s = wp.sin(theta)
-    if p.dist == BECKMANN:
-        t = s / c
-        return -expm1_(-t * t / (wp.float64(2.0) * p.alpha * p.alpha))
-    return one - p.alpha * c / wp.sqrt(p.alpha * p.alpha * c * c + s * s)
-
-
-@wp.func
-def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, max_rules: wp.int32):
-    """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v). Returns (K, error incl. inner, rules)."""
+    v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`).
+    Returns (K, error incl. the inner estimates, inner rule applications)."""
+    tol_in = x[0]
+    max_rules = int(x[1])
     half = wp.float64(0.5)
     one = wp.float64(1.0)
     ctr = half * (va + vb)
@@ -478,8 +299,8 @@ def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, ma
         if j >= 8:
             jj = j - 8
             sgn = -one
-        v = ctr + sgn * hl * _XGK[jj]
-        tm = _theta_of_v(p, v)
+        v = ctr + sgn * hl * XGK_D[jj]
+        tm = dcos_tan_of_v(v, p.alpha, p.dist)
         cm = one / wp.sqrt(one + tm * tm)
         sm = tm * cm
         jac = wp.float64(2.0) * (one - v)
@@ -488,31 +309,21 @@ def _gk_v(p: TexelParams, va: wp.float64, vb: wp.float64, tol_in: wp.float64, ma
         f = f * jac
         f0[j] = f[0]
         f1[j] = f[1]
-        rk += _WGK[jj] * f
-        rg += _WG[jj] * f
-        ei += _WGK[jj] * jac * e
+        rk += WGK_D[jj] * f
+        rg += WG7_D[jj] * f
+        ei += WGK_D[jj] * jac * e
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
         jj = j
         if j >= 8:
             jj = j - 8
-        resasc += _WGK[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
-    return rk * hl, _gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl, rules
+        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl, rules
 
 
-@wp.func
-def _mirror(p: TexelParams):
-    """alpha = 0: D is a Dirac delta at n, o is the mirror (or straight refraction), G = 1."""
-    one = wp.float64(1.0)
-    if p.mode == MODE_DFG:
-        w = one - p.mu
-        w5 = w * w * w * w * w
-        return wp.vec2d(one - w5, w5)
-    if p.mode == MODE_DIELECTRIC:
-        f = fresnel_dielectric(p.mu, p.eta)
-        return wp.vec2d(f, one - f)
-    return wp.vec2d(fresnel(p.mu, p.ftype, p.fp0, p.fp1), wp.float64(0.0))
+# the outer level: global adaptivity in v over the initial pieces, with the same routine
+_adaptive_outer = make_global_bisection(_gk_v)
 
 
 @wp.kernel
@@ -535,32 +346,15 @@ def texel_kernel(
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
 ):
-    tid = wp.tid()
-    i = idx[tid]
-    zero = wp.float64(0.0)
-    one = wp.float64(1.0)
-    mu = wp.clamp(mu_a[i], zero, one)
-    p = TexelParams()
-    p.mode = mode
-    p.dist = dist
-    p.shadowing = shadowing
-    p.ftype = ftype
-    p.fp0 = fp0
-    p.fp1 = fp1
-    p.mu = mu
-    p.sin_i = wp.sqrt(wp.max(zero, one - mu * mu))
-    p.alpha = alpha_a[i]
-    p.eta = eta_a[i]
-    p.li = lambda_cos(mu, p.alpha, dist)
-    p.err_model = err_model
-    if p.alpha <= zero:
-        r = _mirror(p)
-        value[i, 0] = r[0]
-        value[i, 1] = r[1]
-        error[i, 0] = zero
-        error[i, 1] = zero
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored, one evaluation
         cost[i] = 1
         return
+    p.err_model = err_model
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    mu = p.mu
     # outer breakpoints in theta_m where the phi pieces change (module docstring)
     theta_i = wp.acos(mu)
     hp = _HALF_PI
@@ -593,17 +387,11 @@ def texel_kernel(
     v_end = one
     if mode != MODE_DIELECTRIC:
         # reflection only: no admissible micro-normal beyond theta_m = (pi/2 + theta_i) / 2
-        v_end = _v_of_theta(p, wp.float64(0.5) * (hp + theta_i))
+        v_end = dcos_v_of_theta(wp.float64(0.5) * (hp + theta_i), p.alpha, p.dist)
     # split the budget: a quarter for the inner phi integrals (summed through the outer weights,
     # at most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * _PI
     tol_in = wp.float64(0.25) * tol_total
-    ia = _stackd()
-    ib = _stackd()
-    v0 = _stackd()
-    v1 = _stackd()
-    e0 = _stackd()
-    e1 = _stackd()
     # initial intervals: the pieces between the breakpoints, none longer than 1/8 in v
     ends = _vec32d()
     ends[0] = zero
@@ -611,7 +399,7 @@ def texel_kernel(
     for q in range(nt + 1):
         vb = v_end
         if q < nt:
-            vb = wp.min(_v_of_theta(p, th[q]), v_end)
+            vb = wp.min(dcos_v_of_theta(th[q], p.alpha, p.dist), v_end)
         while vb - ends[ne - 1] > wp.float64(0.125) and ne < 30:
             ends[ne] = ends[ne - 1] + wp.float64(0.125)
             ne += 1
@@ -619,55 +407,8 @@ def texel_kernel(
             ends[ne] = vb
             ne += 1
     ne -= 1
-    n = int(0)
-    used = int(0)
-    rules = int(0)
-    te = wp.vec2d(zero, zero)
-    for q in range(ne):
-        if ends[q + 1] > ends[q]:
-            r, e, inner_rules = _gk_v(p, ends[q], ends[q + 1], tol_in, max_rules_inner)
-            used += 1
-            rules += inner_rules
-            ia[n] = ends[q]
-            ib[n] = ends[q + 1]
-            v0[n] = r[0]
-            v1[n] = r[1]
-            e0[n] = e[0]
-            e1[n] = e[1]
-            te += e
-            n += 1
-    # global adaptivity: bisect the interval with the largest error until the sum is small enough
-    while (te[0] > tol_total or te[1] > tol_total) and used + 2 <= max_rules_outer and n < _STACK:
-        j = int(0)
-        worst = wp.float64(-1.0)
-        for q in range(n):
-            w = wp.max(e0[q], e1[q])
-            if w > worst:
-                worst = w
-                j = q
-        mid = wp.float64(0.5) * (ia[j] + ib[j])
-        rl, el, rules_l = _gk_v(p, ia[j], mid, tol_in, max_rules_inner)
-        rr, er, rules_r = _gk_v(p, mid, ib[j], tol_in, max_rules_inner)
-        used += 2
-        rules += rules_l + rules_r
-        te += el + er - wp.vec2d(e0[j], e1[j])
-        ia[n] = mid
-        ib[n] = ib[j]
-        v0[n] = rr[0]
-        v1[n] = rr[1]
-        e0[n] = er[0]
-        e1[n] = er[1]
-        ib[j] = mid
-        v0[j] = rl[0]
-        v1[j] = rl[1]
-        e0[j] = el[0]
-        e1[j] = el[1]
-        n += 1
-    total = wp.vec2d(zero, zero)
-    err = wp.vec2d(zero, zero)
-    for q in range(n):
-        total += wp.vec2d(v0[q], v1[q])
-        err += wp.vec2d(e0[q], e1[q])
+    total, err, rules = _adaptive_outer(p, wp.vec2d(tol_in, wp.float64(max_rules_inner)), ends, ne, tol_total,
+                                        max_rules_outer)
     value[i, 0] = total[0] / _PI
     value[i, 1] = total[1] / _PI
     # floor: float64 accumulation over ~1e5 terms is not trusted below 1e-10 absolute
@@ -715,18 +456,11 @@ def integrate_texels(
     cost : ndarray of int, shape (N,)
         Integrand evaluations per texel (only with ``return_cost=True``).
     """
-    from .parallel import resolve_device, run_chunks
-
-    dev = resolve_device(device) if not isinstance(device, wp.Device) else device
-    mu = np.ascontiguousarray(mu, dtype=np.float64).ravel()
-    alpha = np.ascontiguousarray(alpha, dtype=np.float64).ravel()
+    dev = resolve_device(device)
+    check_workers(workers)
+    mode_sel = mode_id(mode)
+    mu, alpha, eta, mu_w, alpha_w, eta_w = texel_arrays(mu, alpha, eta, dev)
     n = mu.size
-    eta = np.ones(n) if eta is None else np.ascontiguousarray(eta, dtype=np.float64).ravel()
-    if not (alpha.size == n and eta.size == n):
-        raise ValueError("mu, alpha and eta must have the same number of texels")
-    mu_w = wp.array(mu, dtype=wp.float64, device=dev)
-    alpha_w = wp.array(alpha, dtype=wp.float64, device=dev)
-    eta_w = wp.array(eta, dtype=wp.float64, device=dev)
     value = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     error = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     cost = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -736,7 +470,7 @@ def integrate_texels(
             texel_kernel,
             dim=idx.shape[0],
             inputs=[
-                idx, mu_w, alpha_w, eta_w, MODES[mode], int(dist), int(shadowing), int(ftype),
+                idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
                 value, error, cost,
             ],

@@ -23,7 +23,8 @@ import math
 import numpy as np
 import warp as wp
 
-from ._fixed import PI64, Tex, finalize, launch_texels, make_tex, mirror, o_terms, store
+from .fixed import finalize, launch_texels
+from .integrand import PI64, TexelParams, begin_texel, o_terms, store
 
 DEFAULT_EFFORT = 65536
 SAFETY = 3.0  # times |Q(n) - Q(n/2)|
@@ -37,7 +38,7 @@ def grid_shape(effort: int) -> tuple[int, int]:
 
 
 @wp.func
-def _rings(p: Tex, z0: wp.float64, z1: wp.float64, nz: wp.int32, nphi: wp.int32, lower: wp.int32):
+def _rings(p: TexelParams, z0: wp.float64, z1: wp.float64, nz: wp.int32, nphi: wp.int32, lower: wp.int32):
     # midpoint rule over |z| in [z0, z1] (nz rings) and phi in [0, pi] (nphi cells), doubled
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
@@ -56,7 +57,7 @@ def _rings(p: Tex, z0: wp.float64, z1: wp.float64, nz: wp.int32, nphi: wp.int32,
 
 
 @wp.func
-def _midpoint(p: Tex, nz: wp.int32, nphi: wp.int32, lower: wp.int32):
+def _midpoint(p: TexelParams, nz: wp.int32, nphi: wp.int32, lower: wp.int32):
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     zc = zero
@@ -76,12 +77,11 @@ def grid_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float64),
                 dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64, fp1: wp.float64,
                 effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                 error: wp.array2d(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     nz = effort  # effort carries n_z here (n_phi = 2 n_z)
     fine = _midpoint(p, nz, 2 * nz, 0)
     coarse = _midpoint(p, nz / 2, nz, 0)

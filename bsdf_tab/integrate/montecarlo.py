@@ -1,6 +1,6 @@
 """Monte Carlo and quasi-Monte Carlo texel integrators (fixed effort: samples per texel).
 
-Four estimators of the same integrals (see :mod:`bsdf_tab.integrate._fixed`):
+Four estimators of the same integrals (see :mod:`bsdf_tab.integrate.integrand`):
 
 ``mc_cosine``  outgoing directions o from the cosine-weighted hemisphere (pdf cos/pi); the
                lower hemisphere uses the mirrored sample (transmission). Weight pi f.
@@ -35,8 +35,9 @@ import math
 import numpy as np
 import warp as wp
 
-from ..model.distribution import BECKMANN, sample_vndf
-from ._fixed import PI64, TWO_PI64, Tex, finalize, launch_texels, lobe_width, m_terms, make_tex, mirror, o_terms, store
+from ..model.distribution import dcos_sample_tan, sample_vndf
+from .fixed import finalize, launch_texels, lobe_width
+from .integrand import PI64, TWO_PI64, TexelParams, begin_texel, m_terms, o_terms, store
 
 DEFAULT_EFFORT = {"mc_cosine": 65536, "mc_dcos": 65536, "mc_vndf": 65536, "qmc_vndf": 16384}
 QMC_REPLICATES = wp.constant(8)
@@ -63,12 +64,11 @@ def mc_cosine_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.floa
                      dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64, fp1: wp.float64,
                      effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                      error: wp.array2d(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     state = wp.rand_init(seed, i)
     s = wp.vec2d(zero, zero)
     q = wp.vec2d(zero, zero)
@@ -94,14 +94,11 @@ def mc_cosine_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.floa
 
 
 @wp.func
-def _dcos_normal(p: Tex, u1: wp.float64, u2: wp.float64):
-    """m from D(m) cos(theta_m); returns (m, tan theta_m)."""
+def _dcos_normal(p: TexelParams, u1: wp.float64, u2: wp.float64):
+    """m from D(m) cos(theta_m) (the distribution's inverse CDF in theta_m, phi uniform);
+    returns (m, tan theta_m)."""
     one = wp.float64(1.0)
-    t = wp.float64(0.0)
-    if p.dist == BECKMANN:
-        t = p.alpha * wp.sqrt(wp.max(wp.float64(0.0), -wp.log(one - u1)))
-    else:
-        t = p.alpha * wp.sqrt(u1 / (one - u1))
+    t = dcos_sample_tan(u1, p.alpha, p.dist)
     cm = one / wp.sqrt(one + t * t)
     sm = t * cm
     phi = TWO_PI64 * u2
@@ -114,12 +111,11 @@ def mc_dcos_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
                    dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64, fp1: wp.float64,
                    effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                    error: wp.array2d(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     state = wp.rand_init(seed, i)
     s = wp.vec2d(zero, zero)
     q = wp.vec2d(zero, zero)
@@ -149,12 +145,11 @@ def mc_vndf_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
                    dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64, fp1: wp.float64,
                    effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                    error: wp.array2d(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     state = wp.rand_init(seed, i)
     wi = wp.vec3d(p.sin_i, zero, p.mu)
     scale = p.mu + p.li  # (G / mu)(mu + mu Lambda_i) = G / G1(i)
@@ -240,12 +235,11 @@ def qmc_vndf_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float
                     dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64, fp1: wp.float64,
                     effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                     error: wp.array2d(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     wi = wp.vec3d(p.sin_i, zero, p.mu)
     scale = p.mu + p.li
     nrep = QMC_REPLICATES

@@ -24,7 +24,8 @@ import numpy as np
 import warp as wp
 
 from ..model.distribution import sample_vndf
-from ._fixed import PI64, Tex, finalize, launch_texels, m_terms, make_tex, mirror, store
+from .fixed import finalize, launch_texels
+from .integrand import PI64, TexelParams, begin_texel, m_terms, store
 
 DEFAULT_EFFORT = 4096
 SAFETY = 4.0
@@ -42,7 +43,7 @@ def order(effort: int) -> int:
 
 
 @wp.func
-def _product(p: Tex, wi: wp.vec3d, x: wp.array(dtype=wp.float64), w: wp.array(dtype=wp.float64)):
+def _product(p: TexelParams, wi: wp.vec3d, x: wp.array(dtype=wp.float64), w: wp.array(dtype=wp.float64)):
     n = x.shape[0]
     acc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     half_pi = wp.float64(0.5) * PI64
@@ -67,12 +68,11 @@ def vndf_gl_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
                    effort: wp.int32, seed: wp.int32, value: wp.array2d(dtype=wp.float64),
                    error: wp.array2d(dtype=wp.float64), xf: wp.array(dtype=wp.float64),
                    wf: wp.array(dtype=wp.float64), xc: wp.array(dtype=wp.float64), wc: wp.array(dtype=wp.float64)):
-    i = idx[wp.tid()]
-    p = make_tex(mode, dist, shadowing, ftype, fp0, fp1, mu_a[i], alpha_a[i], eta_a[i])
-    zero = wp.float64(0.0)
-    if p.alpha <= zero:
-        store(value, error, i, mirror(p), wp.vec2d(zero, zero))
+    i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
+    if done:
+        # alpha = 0: the mirror limit is stored
         return
+    zero = wp.float64(0.0)
     wi = wp.vec3d(p.sin_i, zero, p.mu)
     fine = _product(p, wi, xf, wf)
     coarse = _product(p, wi, xc, wc)

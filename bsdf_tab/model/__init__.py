@@ -5,6 +5,9 @@ Every function here is generic over the floating-point type: call it with ``wp.f
 ``@wp.kernel``. Integer selectors (distribution, shadowing mode, Fresnel type) are
 ``wp.int32`` constants exported below.
 
+Host-side registries (name -> integer id) for the other layers: :data:`DISTRIBUTIONS` (with
+:data:`DISTRIBUTION_DESCRIPTIONS`), :data:`SHADOWINGS`, :data:`FRESNELS`.
+
 Conventions follow Walter et al. 2007, "Microfacet Models for Refraction through Rough
 Surfaces": local frame with macro normal n = +z, all directions unit vectors pointing away from
 the surface, ``alpha`` is Walter's width parameter (alpha_g for GGX, alpha_b for Beckmann).
@@ -13,9 +16,30 @@ No I/O happens in this package: it is importable into any user's kernel module.
 """
 
 from .frame import cos_theta, sin2_theta, tan2_theta, reflect, refract, refract_k2, expm1_, log1p_
-from .ggx import ggx_D, ggx_lambda, ggx_lambda_cos, ggx_sample_vndf
-from .beckmann import beckmann_D, beckmann_lambda, beckmann_lambda_cos, beckmann_sample_vndf
+from .ggx import (
+    ggx_D,
+    ggx_lambda,
+    ggx_lambda_cos,
+    ggx_sample_vndf,
+    ggx_dcos_sample_tan,
+    ggx_dcos_tan_of_v,
+    ggx_dcos_v_of_theta,
+    ggx_dlnD_dcos,
+)
+from .beckmann import (
+    beckmann_D,
+    beckmann_lambda,
+    beckmann_lambda_cos,
+    beckmann_sample_vndf,
+    beckmann_dcos_sample_tan,
+    beckmann_dcos_tan_of_v,
+    beckmann_dcos_v_of_theta,
+    beckmann_dlnD_dcos,
+)
 from .distribution import (
+    DISTRIBUTIONS,
+    DISTRIBUTION_DESCRIPTIONS,
+    distribution_id,
     GGX,
     BECKMANN,
     D,
@@ -24,8 +48,13 @@ from .distribution import (
     smith_G1,
     sample_vndf,
     pdf_vndf,
+    dcos_sample_tan,
+    dcos_tan_of_v,
+    dcos_v_of_theta,
+    dlnD_dcos,
 )
 from .shadowing import (
+    SHADOWINGS,
     SEPARABLE,
     CORRELATED,
     smith_G,
@@ -34,6 +63,7 @@ from .shadowing import (
     smith_G_over_cos_i_equal,
 )
 from .fresnel import (
+    FRESNELS,
     FRESNEL_ONE,
     FRESNEL_SCHLICK,
     FRESNEL_DIELECTRIC,

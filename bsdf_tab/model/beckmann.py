@@ -1,4 +1,9 @@
-"""Beckmann microfacet distribution.
+"""Beckmann microfacet distribution: everything the package knows about it.
+
+D, the exact Smith Lambda (and |cos| Lambda), visible-normal sampling, the CDF of D(m) cos(theta_m)
+in theta_m and its inverse (for D cos sampling and the adaptive integrator's outer variable), and
+the bound on |d ln D / d cos theta_m| the bsdf table uses to propagate rounding. Registered in
+:mod:`bsdf_tab.model.distribution` under :data:`NAME`.
 
 References: Walter et al. 2007 (D, eq. 25; Smith Lambda, eq. 27 without the rational
 approximation); Heitz and d'Eon 2014, "Importance Sampling Microfacet-Based BSDFs using the
@@ -9,6 +14,12 @@ from typing import Any
 
 import warp as wp
 
+from .frame import expm1_, log1p_
+
+NAME = "beckmann"
+DESCRIPTION = "Beckmann, alpha = alpha_b (Walter et al. 2007 eq. 25)"
+
+_HALF_PI = 1.5707963267948966
 _INV_SQRT_PI = 0.56418958354775628
 _HALF_INV_SQRT_PI = 0.28209479177387814
 
@@ -115,3 +126,45 @@ def beckmann_sample_vndf(wi: Any, alpha: Any, u1: Any, u2: Any):
     sx = alpha * (cos_phi * x - sin_phi * y)
     sy = alpha * (sin_phi * x + cos_phi * y)
     return wp.normalize(type(wi)(-sx, -sy, one))
+
+
+@wp.func
+def beckmann_dcos_sample_tan(u: Any, alpha: Any):
+    """tan(theta_m) where the D cos CDF u = 1 - exp(-tan^2 / alpha^2) takes the value ``u`` in [0, 1).
+
+    Inverse-CDF sampling of D(m) cos(theta_m) (Walter et al. 2007 eq. 28): tan = alpha sqrt(-ln(1 - u)).
+    """
+    return alpha * wp.sqrt(wp.max(type(u)(0.0), -wp.log(type(u)(1.0) - u)))
+
+
+@wp.func
+def beckmann_dcos_tan_of_v(v: Any, alpha: Any):
+    """tan(theta_m) at v in [0, 1), where u = 1 - (1 - v)^2 is the D cos CDF.
+
+    tan^2 = -alpha^2 ln((1 - v)^2), with log1p for small v.
+    """
+    return alpha * wp.sqrt(wp.max(type(v)(0.0), type(v)(-2.0) * log1p_(-v)))
+
+
+@wp.func
+def beckmann_dcos_v_of_theta(theta: Any, alpha: Any):
+    """Inverse of :func:`beckmann_dcos_tan_of_v` for theta_m in [0, pi/2]: v = 1 - exp(-tan^2 / (2 alpha^2))."""
+    one = type(theta)(1.0)
+    if theta >= type(theta)(_HALF_PI) or alpha <= type(alpha)(0.0):
+        # the horizon, or a mirror (all of D at theta_m = 0): the whole CDF
+        return one
+    c = wp.cos(theta)
+    s = wp.sin(theta)
+    t = s / c
+    return -expm1_(-t * t / (type(theta)(2.0) * alpha * alpha))
+
+
+@wp.func
+def beckmann_dlnD_dcos(c: Any, alpha: Any):
+    """Bound on |d ln D / d cos theta_m|: 4 / c + 2 / (c^3 alpha^2).
+
+    The amplification of a relative error in cos theta_m into D (the bsdf table's rounding
+    estimate); ``c`` is clamped to 1e-300 so that c = 0 gives a huge bound (or +inf), never nan.
+    """
+    c = wp.max(c, type(c)(1.0e-300))
+    return type(c)(4.0) / c + type(c)(2.0) / (c * c * c * alpha * alpha)

@@ -11,10 +11,13 @@ from typing import Any
 
 import warp as wp
 
-FRESNEL_ONE = wp.constant(0)
-FRESNEL_SCHLICK = wp.constant(1)
-FRESNEL_DIELECTRIC = wp.constant(2)
-FRESNEL_CONDUCTOR = wp.constant(3)
+FRESNELS = {"one": 0, "schlick": 1, "dielectric": 2, "conductor": 3}
+"""name (the spec's ``fresnel.type``) -> integer id, the ``ftype`` selector of :func:`fresnel`."""
+
+FRESNEL_ONE = wp.constant(FRESNELS["one"])
+FRESNEL_SCHLICK = wp.constant(FRESNELS["schlick"])
+FRESNEL_DIELECTRIC = wp.constant(FRESNELS["dielectric"])
+FRESNEL_CONDUCTOR = wp.constant(FRESNELS["conductor"])
 
 
 @wp.func

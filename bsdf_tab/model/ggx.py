@@ -1,4 +1,9 @@
-"""GGX (Trowbridge-Reitz) microfacet distribution.
+"""GGX (Trowbridge-Reitz) microfacet distribution: everything the package knows about it.
+
+D, the exact Smith Lambda (and |cos| Lambda), visible-normal sampling, the CDF of D(m) cos(theta_m)
+in theta_m and its inverse (for D cos sampling and the adaptive integrator's outer variable), and
+the bound on |d ln D / d cos theta_m| the bsdf table uses to propagate rounding. Registered in
+:mod:`bsdf_tab.model.distribution` under :data:`NAME`.
 
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces"
 (D, eq. 33; Smith Lambda); Heitz 2014, "Understanding the Masking-Shadowing Function in
@@ -10,7 +15,11 @@ from typing import Any
 
 import warp as wp
 
+NAME = "ggx"
+DESCRIPTION = "GGX / Trowbridge-Reitz, alpha = alpha_g (Walter et al. 2007 eq. 33)"
+
 _TWO_PI = 6.283185307179586
+_HALF_PI = 1.5707963267948966
 
 
 @wp.func
@@ -79,3 +88,46 @@ def ggx_sample_vndf(wi: Any, alpha: Any, u1: Any, u2: Any):
     p2 = (one - s) * wp.sqrt(wp.max(zero, one - p1 * p1)) + s * p2
     nh = p1 * t1 + p2 * t2 + wp.sqrt(wp.max(zero, one - p1 * p1 - p2 * p2)) * vh
     return wp.normalize(type(wi)(alpha * nh[0], alpha * nh[1], wp.max(zero, nh[2])))
+
+
+@wp.func
+def ggx_dcos_sample_tan(u: Any, alpha: Any):
+    """tan(theta_m) where the D cos CDF u = tan^2 / (alpha^2 + tan^2) takes the value ``u`` in [0, 1).
+
+    Inverse-CDF sampling of D(m) cos(theta_m) (Walter et al. 2007 eq. 35): tan = alpha sqrt(u / (1 - u)).
+    """
+    return alpha * wp.sqrt(u / (type(u)(1.0) - u))
+
+
+@wp.func
+def ggx_dcos_tan_of_v(v: Any, alpha: Any):
+    """tan(theta_m) at v in [0, 1), where u = 1 - (1 - v)^2 is the D cos CDF.
+
+    tan = alpha sqrt(u) / (1 - v) with u = v (2 - v): no cancellation in 1 - u near v = 1.
+    """
+    w = type(v)(1.0) - v
+    return alpha * wp.sqrt(v * (type(v)(2.0) - v)) / w
+
+
+@wp.func
+def ggx_dcos_v_of_theta(theta: Any, alpha: Any):
+    """Inverse of :func:`ggx_dcos_tan_of_v` for theta_m in [0, pi/2]: v = 1 - alpha cos / sqrt(alpha^2 cos^2 + sin^2)."""
+    one = type(theta)(1.0)
+    if theta >= type(theta)(_HALF_PI) or alpha <= type(alpha)(0.0):
+        # the horizon, or a mirror (all of D at theta_m = 0): the whole CDF
+        return one
+    c = wp.cos(theta)
+    s = wp.sin(theta)
+    return one - alpha * c / wp.sqrt(alpha * alpha * c * c + s * s)
+
+
+@wp.func
+def ggx_dlnD_dcos(c: Any, alpha: Any):
+    """Bound on |d ln D / d cos theta_m|: 4 / c + 4 / (c (alpha^2 c^2 + 1 - c^2)).
+
+    The amplification of a relative error in cos theta_m into D (the bsdf table's rounding
+    estimate); ``c`` is clamped to 1e-300 so that c = 0 gives a huge bound (or +inf), never nan.
+    """
+    one = type(c)(1.0)
+    c = wp.max(c, type(c)(1.0e-300))
+    return type(c)(4.0) / c + type(c)(4.0) / (c * (alpha * alpha * c * c + wp.max(one - c * c, type(c)(0.0))))

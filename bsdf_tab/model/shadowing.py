@@ -12,8 +12,11 @@ import warp as wp
 
 from .distribution import lambda_cos
 
-SEPARABLE = wp.constant(0)
-CORRELATED = wp.constant(1)
+SHADOWINGS = {"separable": 0, "correlated": 1}
+"""name (the spec's ``shadowing``) -> integer id, the ``shadowing`` selector below."""
+
+SEPARABLE = wp.constant(SHADOWINGS["separable"])
+CORRELATED = wp.constant(SHADOWINGS["correlated"])
 
 
 @wp.func

@@ -7,6 +7,7 @@ per-texel error estimate (|true error| <= reported error for >= 99.9% of texels,
 
 The reference is costly (~0.3 s per integral), so texels are few, seeded, and cached for the
 session; regimes that are slow for it are sampled with fewer texels, never skipped.
+Distributions, shadowing modes and Fresnel types come from the model's registries.
 """
 
 from __future__ import annotations
@@ -18,13 +19,14 @@ import pytest
 
 from bsdf_tab import tabulate
 from bsdf_tab.integrate import integrate_texels
+from bsdf_tab.model import DISTRIBUTIONS, FRESNELS, SHADOWINGS
 from tests.reference import microfacet_ref as ref
 
 TOL = 1e-6  # the accuracy the integrator promises
-DISTS = {0: "ggx", 1: "beckmann"}
-SHADS = {0: "separable", 1: "correlated"}
-COMBOS = [(d, s) for d in (0, 1) for s in (0, 1)]
-FTYPES = {"one": 0, "schlick": 1, "dielectric": 2, "conductor": 3}
+DISTS = {i: name for name, i in DISTRIBUTIONS.items()}
+SHADS = {i: name for name, i in SHADOWINGS.items()}
+COMBOS = [(d, s) for d in DISTS for s in SHADS]
+FTYPES = dict(FRESNELS)
 
 
 def _sample(seed, n, *, eta=None):
@@ -230,13 +232,14 @@ def test_closed_forms_ggx():
     """SPEC 5: GGX F = 1: E(1, 1) = 1 - ln 2 (both modes); separable E(mu -> 0, 1) = 2 - 2 ln 2;
     correlated E(mu -> 0) = 1 (G / mu -> 1 / (mu Lambda_i) and the visible projected area of the
     micro-normals is mu (1 + Lambda_i))."""
-    for shad in (0, 1):
-        v, _ = integrate_texels("reflect", np.array([1.0]), np.array([1.0]), dist=0, shadowing=shad)
+    ggx, sep = DISTRIBUTIONS["ggx"], SHADOWINGS["separable"]
+    for shad in SHADS:
+        v, _ = integrate_texels("reflect", np.array([1.0]), np.array([1.0]), dist=ggx, shadowing=shad)
         assert abs(v[0, 0] - (1.0 - math.log(2.0))) <= TOL
-    v, _ = integrate_texels("reflect", np.array([0.0]), np.array([1.0]), dist=0, shadowing=0)
+    v, _ = integrate_texels("reflect", np.array([0.0]), np.array([1.0]), dist=ggx, shadowing=sep)
     assert abs(v[0, 0] - (2.0 - 2.0 * math.log(2.0))) <= TOL
     # at mu = 1e-6 the separable E differs from its limit by O(mu): 1e-5 is generous
-    v, _ = integrate_texels("reflect", np.array([1e-6]), np.array([1.0]), dist=0, shadowing=0)
+    v, _ = integrate_texels("reflect", np.array([1e-6]), np.array([1.0]), dist=ggx, shadowing=sep)
     assert abs(v[0, 0] - (2.0 - 2.0 * math.log(2.0))) <= 1e-5
     # the reference reproduces them too
     assert abs(ref.albedo(1.0, 1.0, "ggx", "correlated").value - (1 - math.log(2))) < 1e-12
@@ -273,12 +276,12 @@ def test_near_smooth_limit(dist, shad):
         _check_close(f"near-smooth alpha={a}", v[:, 0], e[:, 0], r, 0 * r, list(mus))
 
 
-@pytest.mark.parametrize("dist", [0, 1])
+@pytest.mark.parametrize("dist", list(DISTS))
 def test_very_rough(dist):
     mu = np.array([0.05, 0.5, 1.0])
     for a in (1.5, 2.0):
         alpha = np.full_like(mu, a)
-        v, e = integrate_texels("reflect", mu, alpha, dist=dist, shadowing=1)
+        v, e = integrate_texels("reflect", mu, alpha, dist=dist, shadowing=SHADOWINGS["correlated"])
         r = np.array([ref.albedo(float(m), a, DISTS[dist], "correlated").value for m in mu])
         _check_close(f"rough alpha={a}", v[:, 0], e[:, 0], r, 0 * r, list(mu))
 
@@ -358,7 +361,7 @@ def test_total_internal_reflection(dist, shad):
 # ----------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("dist,shad", [(0, 1), (1, 0)])
+@pytest.mark.parametrize("dist,shad", [(d, (d + 1) % len(SHADS)) for d in DISTS])  # each once, shadowing rotated
 def test_tabulate_albedo_avg(dist, shad):
     alphas = [0.1, 0.5, 1.0]
     spec = {
@@ -430,7 +433,7 @@ def _outgoing_space(wi, alpha, dist, shad, kind, eta=None, n=200):
     return 2.0 * np.sum(f * Z * wz[:, None] * wp[None, :])
 
 
-@pytest.mark.parametrize("dist", ["ggx", "beckmann"])
+@pytest.mark.parametrize("dist", list(DISTRIBUTIONS))
 def test_reference_against_outgoing_space_brute_force(dist):
     """Validates the micro-normal parametrization, the Jacobians (Walter eqs. 14, 17) and the
     domain logic of the reference against the point BSDFs, at roughness where brute force works."""
@@ -445,7 +448,7 @@ def test_reference_against_outgoing_space_brute_force(dist):
 
 
 def test_reference_dfg_consistency():
-    for dist in ("ggx", "beckmann"):
+    for dist in DISTRIBUTIONS:
         a, b = ref.dfg(0.4, 0.25, dist, "correlated")
         e = ref.albedo(0.4, 0.25, dist, "correlated")
         assert abs(a.value + b.value - e.value) < 1e-9

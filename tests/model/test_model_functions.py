@@ -1,16 +1,21 @@
-"""The Warp model functions, called from a user's own kernel module (tests/user_kernels.py),
-against the independent float64 reference point functions, in float64 and float32."""
+"""The Warp model functions, called from a user's own kernel module (tests/model/user_kernels.py),
+against the independent float64 reference point functions, in float64 and float32.
+
+Parametrized over the model's registries (distributions, shadowing modes, Fresnel types): a
+newly registered distribution is tested here as soon as the reference knows it."""
 
 import math
 
 import numpy as np
 import pytest
 
-from tests import user_kernels as uk
+from bsdf_tab.model import DISTRIBUTIONS, FRESNELS, SHADOWINGS
+from tests.model import user_kernels as uk
 from tests.reference import microfacet_ref as ref
 
-DISTS = {0: "ggx", 1: "beckmann"}
-SHADS = {0: "separable", 1: "correlated"}
+DISTS = {i: name for name, i in DISTRIBUTIONS.items()}
+SHADS = {i: name for name, i in SHADOWINGS.items()}
+COMBOS = [(d, s) for d in DISTS for s in SHADS]
 F64, F32 = np.float64, np.float32
 
 
@@ -56,7 +61,7 @@ def _ref_columns(cos_v, cos_o, alpha, v, m, eta, k, dist, shad):
     return cols
 
 
-@pytest.mark.parametrize("dist,shad", [(0, 0), (0, 1), (1, 0), (1, 1)])
+@pytest.mark.parametrize("dist,shad", COMBOS)
 def test_point_functions_match_reference(dist, shad):
     inputs = _point_inputs(10 + 2 * dist + shad)
     cos_v, cos_o, alpha, v, m, eta, k = inputs
@@ -93,15 +98,20 @@ def _random_pairs(seed, n, lower=False):
     return wi, wo, alpha
 
 
-FRESNELS = [(0, 0.0, 0.0, ("one",)), (1, 0.04, 0.0, ("schlick", 0.04)), (2, 1.5, 0.0, ("dielectric", 1.5)),
-            (2, 0.7, 0.0, ("dielectric", 0.7)), (3, 0.2, 3.9, ("conductor", 0.2, 3.9))]
+FRESNEL_CASES = [
+    (FRESNELS["one"], 0.0, 0.0, ("one",)),
+    (FRESNELS["schlick"], 0.04, 0.0, ("schlick", 0.04)),
+    (FRESNELS["dielectric"], 1.5, 0.0, ("dielectric", 1.5)),
+    (FRESNELS["dielectric"], 0.7, 0.0, ("dielectric", 0.7)),
+    (FRESNELS["conductor"], 0.2, 3.9, ("conductor", 0.2, 3.9)),
+]
 
 
-@pytest.mark.parametrize("dist,shad", [(0, 0), (0, 1), (1, 0), (1, 1)])
+@pytest.mark.parametrize("dist,shad", COMBOS)
 def test_brdf_btdf_match_reference(dist, shad):
     n = 300
     wi, wo, alpha = _random_pairs(20 + dist, n)
-    for ftype, p0, p1, spec in FRESNELS:
+    for ftype, p0, p1, spec in FRESNEL_CASES:
         got = uk.run_bsdf(F64, wi, wo, alpha, np.full(n, p0), np.full(n, p1), dist, shad, ftype)[:, 0]
         want = np.array([ref.f_r(wi[j], wo[j], alpha[j], DISTS[dist], SHADS[shad], spec) for j in range(n)])
         np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-13, err_msg=f"brdf {spec}")
@@ -117,9 +127,9 @@ def test_brdf_btdf_match_reference(dist, shad):
 def test_brdf_reciprocity():
     n = 300
     wi, wo, alpha = _random_pairs(40, n)
-    for dist in (0, 1):
-        for shad in (0, 1):
-            for ftype, p0, p1, _ in FRESNELS:
+    for dist in DISTS:
+        for shad in SHADS:
+            for ftype, p0, p1, _ in FRESNEL_CASES:
                 a = uk.run_bsdf(F64, wi, wo, alpha, np.full(n, p0), np.full(n, p1), dist, shad, ftype)[:, 0]
                 b = uk.run_bsdf(F64, wo, wi, alpha, np.full(n, p0), np.full(n, p1), dist, shad, ftype)[:, 0]
                 np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
@@ -137,8 +147,8 @@ def test_btdf_generalized_reciprocity():
     n = 300
     wi, wo, alpha = _random_pairs(50, n, lower=True)
     flip = np.array([1.0, 1.0, -1.0])
-    for dist in (0, 1):
-        for shad in (0, 1):
+    for dist in DISTS:
+        for shad in SHADS:
             for eta in (1.5, 1 / 1.5, 2.4):
                 fwd = uk.run_bsdf(F64, wi, wo, alpha, np.full(n, eta), np.zeros(n), dist, shad, 0)[:, 1]
                 rev = uk.run_bsdf(F64, wo * flip, wi * flip, alpha, np.full(n, 1 / eta), np.zeros(n), dist, shad, 0)[:, 1]
@@ -158,7 +168,7 @@ def _graded_theta(alpha, n=24):
     return np.concatenate(ts), np.concatenate(ws)
 
 
-@pytest.mark.parametrize("dist", [0, 1])
+@pytest.mark.parametrize("dist", list(DISTS))
 @pytest.mark.parametrize("alpha", [1e-3, 0.05, 0.5, 1.0, 1.5])
 def test_D_normalization(dist, alpha):
     """int D(m) (m.n) dw_m = 2 pi int D(t) cos t sin t dt = 1, with the Warp D."""
@@ -184,7 +194,7 @@ def test_D_normalization(dist, alpha):
         assert abs(tot - 1.0) < 2e-4, (mu, tot)
 
 
-@pytest.mark.parametrize("dist", [0, 1])
+@pytest.mark.parametrize("dist", list(DISTS))
 @pytest.mark.parametrize("dtype", [F64, F32])
 def test_vndf_sampling_density(dist, dtype):
     """Histogram of sampled micro-normals vs the integral of the reference pdf_vndf over bins
@@ -246,9 +256,9 @@ def test_edge_inputs_are_nan_free(dtype):
     alpha = np.array([c[2] for c in cases])
     eta = np.array([c[3] for c in cases])
     n = len(cases)
-    for dist in (0, 1):
-        for shad in (0, 1):
-            for ftype in (0, 1, 2, 3):
+    for dist in DISTS:
+        for shad in SHADS:
+            for ftype in FRESNELS.values():
                 out = uk.run_bsdf(dtype, wi, wo, alpha, eta, np.full(n, 2.0), dist, shad, ftype)
                 assert np.all(np.isfinite(out)), [cases[j] for j in np.nonzero(~np.isfinite(out).all(1))[0][:5]]
                 assert np.all(out >= 0)

@@ -23,6 +23,10 @@ from bsdf_tab.model import (
     fresnel_conductor,
     fresnel_dielectric,
     fresnel_schlick,
+    dcos_sample_tan,
+    dcos_tan_of_v,
+    dcos_v_of_theta,
+    dlnD_dcos,
     lambda_cos,
     pdf_vndf,
     sample_vndf,
@@ -31,7 +35,7 @@ from bsdf_tab.model import (
 )
 
 __all__ = ["GGX", "BECKMANN", "SEPARABLE", "CORRELATED", "FRESNEL_ONE", "FRESNEL_SCHLICK",
-           "FRESNEL_DIELECTRIC", "FRESNEL_CONDUCTOR", "run_point", "run_bsdf", "run_sample"]
+           "FRESNEL_DIELECTRIC", "FRESNEL_CONDUCTOR", "run_point", "run_bsdf", "run_sample", "run_dcos"]
 
 
 def _make_kernels(V, S):
@@ -100,7 +104,21 @@ def _make_kernels(V, S):
         out[t] = m
         pdf[t] = pdf_vndf(wi, m, alpha, dist)
 
-    return point_kernel, bsdf_kernel, sample_kernel
+    @wp.kernel
+    def dcos_kernel(
+        x: wp.array(dtype=S),
+        alpha: wp.array(dtype=S),
+        dist: wp.int32,
+        out: wp.array2d(dtype=S),
+    ):
+        t = wp.tid()
+        a = alpha[t]
+        out[t, 0] = dcos_sample_tan(x[t], a, dist)
+        out[t, 1] = dcos_tan_of_v(x[t], a, dist)
+        out[t, 2] = dcos_v_of_theta(x[t], a, dist)
+        out[t, 3] = dlnD_dcos(x[t], a, dist)
+
+    return point_kernel, bsdf_kernel, sample_kernel, dcos_kernel
 
 
 _KERNELS = {
@@ -149,3 +167,12 @@ def run_sample(dtype, wi, alpha, dist, n, seed=1234):
     wp.launch(_KERNELS[dtype][2], dim=n, device="cpu",
               inputs=[V(*[float(x) for x in wi]), S(alpha), int(dist), int(seed), out, pdf])
     return out.numpy().astype(np.float64), pdf.numpy().astype(np.float64)
+
+
+def run_dcos(dtype, x, alpha, dist):
+    """Columns at x (one array, read as u, v, theta_m or cos theta_m): dcos_sample_tan(u),
+    dcos_tan_of_v(v), dcos_v_of_theta(theta), dlnD_dcos(cos)."""
+    n = len(x)
+    out = wp.zeros((n, 4), dtype=wp.dtype_from_numpy(np.dtype(dtype)), device="cpu")
+    wp.launch(_KERNELS[dtype][3], dim=n, device="cpu", inputs=[_arr(x, dtype), _arr(alpha, dtype), int(dist), out])
+    return out.numpy().astype(np.float64)

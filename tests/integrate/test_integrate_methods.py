@@ -5,7 +5,8 @@ in [0, 1], R + T <= 1, the correct limits (mirror alpha -> 0, the GGX closed for
 internal reflection), and honesty: where a method cannot reach the accuracy, its error channel
 is large (|value - truth| <= error), never a small wrong number. Truth here is independent of
 bsdf_tab: the float64 NumPy/SciPy reference of tests/reference/ (the exact mirror limit at
-alpha = 0) or a closed form. Tiny grids keep this file well under a minute.
+alpha = 0) or a closed form. Tiny grids keep this file well under a minute. Distributions and
+shadowing modes come from the model's registries.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import pytest
 
 from bsdf_tab.errors import SpecError
 from bsdf_tab.integrate import METHODS
+from bsdf_tab.model import DISTRIBUTIONS, SHADOWINGS
 from bsdf_tab.spec import normalize_spec
 from tests.reference import microfacet_ref as ref
 
@@ -30,7 +32,7 @@ ALPHA = np.array([0.0, 1e-6, 1e-4, 1e-3, 0.3, 1.0, 2.0])
 ETA = [1 - 1e-4, 1.0, 1 + 1e-6, 1.01, 1.5, 1 / 1.5]
 
 
-def _run(method, mode, mu, alpha, eta=None, dist=0, shadowing=1, **kw):
+def _run(method, mode, mu, alpha, eta=None, dist=DISTRIBUTIONS["ggx"], shadowing=SHADOWINGS["correlated"], **kw):
     kw = dict(kw)
     if method == "adaptive":
         kw.setdefault("tol", 1e-5)
@@ -45,8 +47,8 @@ def _grid(eta=None):
     return m.ravel(), a.ravel(), None if eta is None else np.full(n, eta)
 
 
-DISTS = {0: "ggx", 1: "beckmann"}
-SHADS = {0: "separable", 1: "correlated"}
+DISTS = {i: name for name, i in DISTRIBUTIONS.items()}
+SHADS = {i: name for name, i in SHADOWINGS.items()}
 # the reference is validated (its two quadratures agree to ~1e-10) for alpha in [1e-4, 2]
 REF_MIN_ALPHA = 1e-4
 
@@ -142,10 +144,10 @@ def _check_honest(v, e, tv, te, nch, what):
 
 
 @pytest.mark.parametrize("method", FIXED)
-@pytest.mark.parametrize("dist", [0, 1])
+@pytest.mark.parametrize("dist", list(DISTS))
 def test_albedo_regimes(method, dist, truth):
     """Grazing mu, near-mirror and very rough alpha, both shadowing modes."""
-    for shad in (0, 1):
+    for shad in SHADS:
         mu, alpha, _ = _grid()
         v, e = _run(method, "reflect", mu, alpha, dist=dist, shadowing=shad)
         _check_basic(v, e, False)
@@ -161,9 +163,9 @@ def test_albedo_regimes(method, dist, truth):
 def test_dielectric_regimes(method, eta, truth):
     """eta near 1 (half-vector singularity), TIR (eta < 1), grazing, near-mirror."""
     mu, alpha, etas = _grid(eta)
-    v, e = _run(method, "dielectric", mu, alpha, etas, dist=0, shadowing=1)
+    v, e = _run(method, "dielectric", mu, alpha, etas, dist=DISTRIBUTIONS["ggx"], shadowing=SHADOWINGS["correlated"])
     _check_basic(v, e, True)
-    tv, te = truth("dielectric", 0, 1, eta)
+    tv, te = truth("dielectric", DISTRIBUTIONS["ggx"], SHADOWINGS["correlated"], eta)
     _check_honest(v, e, tv, te, 2, f"{method} dielectric eta={eta}")
 
 
@@ -183,11 +185,11 @@ def test_total_internal_reflection(method):
 def test_closed_forms_ggx(method):
     """GGX, F = 1: E(1, 1) = 1 - ln 2 (both modes); separable E(mu -> 0, 1) -> 2 - 2 ln 2."""
     exact = 1.0 - math.log(2.0)
-    for shad in (0, 1):
+    for shad in SHADS:
         v, e = _run(method, "reflect", np.array([1.0]), np.array([1.0]), shadowing=shad)
         assert abs(v[0, 0] - exact) <= e[0, 0] + 1e-9
         assert e[0, 0] < 0.1  # and the method does get close here
-    v, e = _run(method, "reflect", np.array([1e-6]), np.array([1.0]), shadowing=0)
+    v, e = _run(method, "reflect", np.array([1e-6]), np.array([1.0]), shadowing=SHADOWINGS["separable"])
     assert abs(v[0, 0] - (2.0 - 2.0 * math.log(2.0))) <= e[0, 0] + 1e-4
 
 

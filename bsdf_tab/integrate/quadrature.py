@@ -1,0 +1,143 @@
+"""The Gauss-Kronrod 7-15 rule and the one global-bisection routine.
+
+The rule's constants are written once, as host NumPy arrays (:data:`XGK`, :data:`WGK`,
+:data:`WG7`: QUADPACK's layout, positive abscissae with the centre last; :data:`GK_X`,
+:data:`GK_WK`, :data:`GK_WG`: all 15 nodes on [-1, 1] in the order the device loops visit them),
+and the device constants are built from them.
+
+:func:`gk_error` is the error model of one rule application (|K15 - G7|, or QUADPACK's
+rescaling). :func:`make_global_bisection` builds the globally adaptive loop (bisect the interval
+with the largest estimate until the summed estimate of both channels meets the tolerance) around
+any rule with the signature ``rule(p, x, a, b) -> (K, error, cost)``; the adaptive method uses it
+at both of its levels with different rules. It is a Python factory over the rule (a Warp closure)
+so that each level gets its own C++ function with a direct call to its rule: no rule selector in
+the hot loop and no extra call level.
+
+Reference: Piessens et al. 1983, "QUADPACK" (qk15, and the global adaptive strategy of qag).
+"""
+
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+# Gauss-Kronrod 15-point abscissae on [-1, 1] (positive half, centre last) and weights;
+# Gauss 7-point weights for the odd Kronrod abscissae and the centre (QUADPACK qk15).
+XGK = np.array([
+    0.991455371120812639206854697526329, 0.949107912342758524526189684047851,
+    0.864864423359769072789712788640926, 0.741531185599394439863864773280788,
+    0.586087235467691130294144845693013, 0.405845151377397166906606412076961,
+    0.207784955007898467600689403773245, 0.0,
+])
+WGK = np.array([
+    0.022935322010529224963732008058970, 0.063092092629978553290700663189204,
+    0.104790010322250183839876322541518, 0.140653259715525918745189590510238,
+    0.169004726639267902826583426598550, 0.190350578064785409913256402421014,
+    0.204432940075298892414161999234649, 0.209482141084727828012999174891714,
+])
+WG7 = np.array([
+    0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
+    0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327,
+])
+# all 15 nodes: j < 8 at +XGK[j], j >= 8 at -XGK[j - 8] (the device loops' order)
+GK_X = np.concatenate([XGK, -XGK[:7]])
+GK_WK = np.concatenate([WGK, WGK[:7]])
+GK_WG = np.concatenate([WG7, WG7[:7]])
+
+vec8d = wp.types.vector(length=8, dtype=wp.float64)
+XGK_D = wp.constant(vec8d(*XGK.tolist()))
+WGK_D = wp.constant(vec8d(*WGK.tolist()))
+WG7_D = wp.constant(vec8d(*WG7.tolist()))
+
+STACK = 64
+"""Interval capacity of one global bisection (the estimates still count when it is full)."""
+stackd = wp.types.vector(length=STACK, dtype=wp.float64)
+
+
+@wp.func
+def gk_error(rk: wp.vec2d, rg: wp.vec2d, resasc: wp.vec2d, err_model: wp.int32):
+    """Error estimate of the K15 value from |K15 - G7| (err_model 0), or QUADPACK's rescaling
+    resasc min(1, (200 |K - G| / resasc)^1.5) (err_model 1), floored at 50 ulp of |K|."""
+    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for c in range(2):
+        d = wp.abs(rk[c] - rg[c])
+        e = d
+        if err_model == 1 and resasc[c] > wp.float64(0.0) and d > wp.float64(0.0):
+            e = resasc[c] * wp.min(wp.float64(1.0), wp.pow(wp.float64(200.0) * d / resasc[c], wp.float64(1.5)))
+        out[c] = wp.max(e, wp.float64(1.1e-14) * wp.abs(rk[c]))
+    return out
+
+
+def make_global_bisection(rule):
+    """A ``@wp.func`` ``bisect(p, x, ends, ne, tol, max_rules)`` running global adaptivity with ``rule``.
+
+    ``rule(p, x, a, b)`` returns (K, error, cost) of one rule application over [a, b] (two
+    channels; ``x`` carries the rule's own parameters, any type). ``bisect`` starts from the
+    intervals between consecutive ``ends[0..ne]`` (a vector; empty intervals are skipped), then
+    bisects the interval with the largest error (the larger of its two channels) while either
+    channel's summed error exceeds ``tol``, ``used + 2 <= max_rules`` rule applications and the
+    :data:`STACK` capacity allow. A texel stopped by a cap keeps its large estimate: the error
+    stays honest. Returns (sum of K, sum of errors, sum of the rules' costs).
+    """
+
+    @wp.func
+    def bisect(p: Any, x: Any, ends: Any, ne: wp.int32, tol: wp.float64, max_rules: wp.int32):
+        zero = wp.float64(0.0)
+        ia = stackd()
+        ib = stackd()
+        v0 = stackd()
+        v1 = stackd()
+        e0 = stackd()
+        e1 = stackd()
+        n = int(0)
+        used = int(0)
+        cost = int(0)
+        te = wp.vec2d(zero, zero)
+        for q in range(ne):
+            if ends[q + 1] > ends[q]:
+                r, e, c = rule(p, x, ends[q], ends[q + 1])
+                used += 1
+                cost += c
+                ia[n] = ends[q]
+                ib[n] = ends[q + 1]
+                v0[n] = r[0]
+                v1[n] = r[1]
+                e0[n] = e[0]
+                e1[n] = e[1]
+                te += e
+                n += 1
+        while (te[0] > tol or te[1] > tol) and used + 2 <= max_rules and n < STACK:
+            j = int(0)
+            worst = wp.float64(-1.0)
+            for q in range(n):
+                w = wp.max(e0[q], e1[q])
+                if w > worst:
+                    worst = w
+                    j = q
+            mid = wp.float64(0.5) * (ia[j] + ib[j])
+            rl, el, cl = rule(p, x, ia[j], mid)
+            rr, er, cr = rule(p, x, mid, ib[j])
+            used += 2
+            cost += cl + cr
+            te += el + er - wp.vec2d(e0[j], e1[j])
+            ia[n] = mid
+            ib[n] = ib[j]
+            v0[n] = rr[0]
+            v1[n] = rr[1]
+            e0[n] = er[0]
+            e1[n] = er[1]
+            ib[j] = mid
+            v0[j] = rl[0]
+            v1[j] = rl[1]
+            e0[j] = el[0]
+            e1[j] = el[1]
+            n += 1
+        total = wp.vec2d(zero, zero)
+        err = wp.vec2d(zero, zero)
+        for q in range(n):
+            total += wp.vec2d(v0[q], v1[q])
+            err += wp.vec2d(e0[q], e1[q])
+        return total, err, cost
+
+    return bisect
+

@@ -1,0 +1,116 @@
+"""Where and how texel kernels run: the device, resolved once, and chunks over worker threads.
+
+A Warp CPU launch runs on one thread and releases the GIL, so W Python threads that launch on
+disjoint index sets keep W cores busy. Texels are independent, so the result does not depend
+on the number of workers or on the chunking (tested). On a CUDA device one thread launches
+large chunks instead.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
+
+import numpy as np
+import warp as wp
+
+ProgressFn = Callable[[int, int], None]
+
+
+def default_workers() -> int:
+    """Worker threads for CPU launches: the cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_workers(workers: int | None) -> int | None:
+    """``workers`` itself, validated: None (all cores) or an integer >= 1."""
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        # 0 used to mean "all cores" silently; None says that explicitly
+        raise ValueError(f"workers must be an integer >= 1 (None: all cores), got {workers!r}")
+    return int(workers)
+
+
+def resolve_device(device: str | wp.Device | None) -> wp.Device:
+    """The Warp device to use: the given one, else CUDA when present, else the CPU."""
+    wp.init()
+    if isinstance(device, wp.Device):
+        return device
+    if device is None:
+        return wp.get_device("cuda:0") if wp.is_cuda_available() else wp.get_device("cpu")
+    try:
+        return wp.get_device(device)
+    except Exception as exc:  # Warp raises plain RuntimeError for unknown devices
+        raise ValueError(f"unknown or unavailable device {device!r}: {exc}") from None
+
+
+def run_chunks(
+    n: int,
+    launch: Callable[[wp.array], None],
+    device: wp.Device,
+    *,
+    workers: int | None = None,
+    chunk: int | None = None,
+    progress: ProgressFn | None = None,
+    order: np.ndarray | None = None,
+) -> None:
+    """Call ``launch(idx)`` for chunks of texel indices covering ``range(n)`` once each.
+
+    ``order`` permutes the texels before chunking (interleave cheap and expensive texels);
+    ``progress(done, total)`` is called after each chunk, from the calling thread's lock.
+    ``workers``: None for all cores, else >= 1 (ValueError otherwise; ignored on CUDA).
+    """
+    workers = check_workers(workers)
+    if n == 0:
+        return
+    ids = np.arange(n, dtype=np.int32) if order is None else np.asarray(order, dtype=np.int32)
+    if device.is_cuda:
+        workers = 1
+        chunk = chunk or 65536
+    else:
+        workers = workers or default_workers()
+        chunk = chunk or max(1, min(64, -(-n // (4 * workers))))
+    pieces = [ids[s : s + chunk] for s in range(0, n, chunk)]
+    done = 0
+    lock = threading.Lock()
+
+    def work(piece: np.ndarray) -> None:
+        nonlocal done
+        launch(wp.array(piece, dtype=wp.int32, device=device))
+        if device.is_cuda:
+            wp.synchronize_device(device)
+        with lock:
+            done += len(piece)
+            if progress is not None:
+                progress(done, n)
+
+    # the first chunk runs here: it compiles/loads the module once, before threads race for it
+    work(pieces[0])
+    if workers == 1 or len(pieces) == 1:
+        for piece in pieces[1:]:
+            work(piece)
+        return
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for fut in [pool.submit(work, piece) for piece in pieces[1:]]:
+            fut.result()
+
+
+def texel_arrays(mu, alpha, eta, device: wp.Device):
+    """Flat float64 copies of the texel inputs (eta = 1 when None) and their device arrays.
+
+    Returns (mu, alpha, eta, mu_w, alpha_w, eta_w); ValueError when the lengths differ.
+    """
+    mu = np.ascontiguousarray(mu, dtype=np.float64).ravel()
+    alpha = np.ascontiguousarray(alpha, dtype=np.float64).ravel()
+    n = mu.size
+    eta = np.ones(n) if eta is None else np.ascontiguousarray(eta, dtype=np.float64).ravel()
+    if not (alpha.size == n and eta.size == n):
+        raise ValueError("mu, alpha and eta must have the same number of texels")
+    arrays = [wp.array(a, dtype=wp.float64, device=device) for a in (mu, alpha, eta)]
+    return (mu, alpha, eta, *arrays)

@@ -1,0 +1,39 @@
+"""The integrators' runtime: worker validation, results independent of workers and chunking."""
+
+import numpy as np
+import pytest
+
+from bsdf_tab.integrate import METHODS
+from bsdf_tab.integrate.runtime import check_workers, run_chunks, resolve_device
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2"])
+def test_workers_below_one_or_not_an_integer_is_rejected(workers):
+    with pytest.raises(ValueError, match="workers"):
+        check_workers(workers)
+    with pytest.raises(ValueError, match="workers"):
+        run_chunks(4, lambda idx: None, resolve_device("cpu"), workers=workers)
+
+
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_every_method_rejects_workers_zero(method):
+    """0 used to mean "all cores" silently; None says that. Rejected before any kernel runs."""
+    with pytest.raises(ValueError, match="workers"):
+        METHODS[method]("reflect", np.array([0.5]), np.array([0.5]), device="cpu", workers=0)
+
+
+def test_none_means_all_cores_and_one_is_fine():
+    assert check_workers(None) is None and check_workers(1) == 1 and check_workers(np.int64(3)) == 3
+    seen = []
+    run_chunks(10, lambda idx: seen.extend(idx.numpy().tolist()), resolve_device("cpu"), workers=None, chunk=3)
+    assert sorted(seen) == list(range(10))
+
+
+def test_adaptive_does_not_depend_on_workers_or_chunking():
+    rng = np.random.default_rng(3)
+    mu, alpha = rng.uniform(0, 1, 70), 10 ** rng.uniform(-3, 0, 70)  # > 64: interleaved order
+    a = METHODS["adaptive"]("reflect", mu, alpha, workers=1, tol=1e-5)
+    b = METHODS["adaptive"]("reflect", mu, alpha, workers=2, tol=1e-5)
+    c = METHODS["adaptive"]("reflect", mu[5:9], alpha[5:9], workers=1, tol=1e-5)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert np.array_equal(a[0][5:9], c[0]) and np.array_equal(a[1][5:9], c[1])
