@@ -15,7 +15,7 @@ from pathlib import Path
 from ..errors import SpecError
 from ..scene import ScenePlan, is_scene, load_scene_file, plan_scene
 from ..scene import bake_scene as write_scene
-from ..table import json_default
+from ..io import json_default
 from .common import CliError, check_workers, quiet_warp
 
 NAME = "plan"

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
-from ..table import json_default
+from ..io import json_default, write_text
 
 __all__ = ["bake_scene", "material_entry", "plan_dict"]
 
@@ -101,5 +101,5 @@ def bake_scene(plan, out_dir: str | Path) -> Path:
     for t in plan.tables:
         t.table.write_exr(out / t.file)
     path = out / "manifest.json"
-    path.write_text(json.dumps(plan_dict(plan), indent=2, default=json_default) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(plan_dict(plan), indent=2, default=json_default) + "\n")
     return path

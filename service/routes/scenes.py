@@ -29,7 +29,7 @@ from fastapi.responses import Response
 from bsdf_tab import __version__
 from bsdf_tab.errors import SpecError
 from bsdf_tab.scene import check_lookup_tol, is_scene, parse_scene, plan_scene
-from bsdf_tab.table import json_default
+from bsdf_tab.io import json_default
 
 from ..cache import table_key
 from ..params import only_params

@@ -10,7 +10,7 @@ from scene_cases import TINY
 
 from bsdf_tab.cli import main
 from bsdf_tab.cli.plan import is_scene_file
-from bsdf_tab.exr import read_exr
+from bsdf_tab import read_exr
 
 
 def _run(capsys, *argv):

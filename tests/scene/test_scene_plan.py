@@ -14,7 +14,7 @@ from scene_cases import GLASS3D, METALS, MIXED, SCENES, TINY, material_points, p
 import bsdf_tab.api
 from bsdf_tab.api import tabulate
 from bsdf_tab.errors import SpecError
-from bsdf_tab.exr import read_exr
+from bsdf_tab import read_exr
 from bsdf_tab.scene import bake_scene, plan_scene
 from tests.reference import microfacet_ref as ref
 

@@ -8,7 +8,7 @@ import base64
 import pytest
 from scene_cases import TINY
 
-from bsdf_tab.exr import read_exr
+from bsdf_tab import read_exr
 
 pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
