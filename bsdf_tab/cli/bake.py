@@ -5,6 +5,17 @@
 into ``luts/``; ``bake --preset NAME -o DIR`` an engine layout; ``bake SCENE --tol T -o DIR``
 the tables a scene needs (:mod:`.plan`). Every table goes spec -> ``bsdf_tab.api`` -> a writer
 of :mod:`bsdf_tab.io`.
+
+Storage: every file's ``meta["storage"]`` reports, per channel, the integration error and the
+error its storage adds (:mod:`bsdf_tab.io.storage`). The texture formats (``ktx2``, ``dds``,
+``png``) take ``--precision float32|float16|unorm16|unorm10|unorm8`` (a preset: its engine's
+encoding) or ``--precision auto --store-tol T``: the smallest encoding whose stored values stay
+within T of the exact ones (integration + storage error, texel by texel). ``--tol`` means the
+lookup error for a scene file and, with ``--precision auto`` and any other input, the same as
+``--store-tol``.
+
+``--emit glsl,hlsl,wgsl,c,warp`` also writes lookup code beside the table
+(:func:`bsdf_tab.lookup.emit_files`).
 """
 
 from __future__ import annotations
@@ -14,9 +25,13 @@ import sys
 from pathlib import Path
 
 from .. import io
+from ..io.storage import ENCODINGS, FORMAT_STORAGE, choose_encoding, storage_report
 from ..spec import texel_count
 from .common import PROG, CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
 from .plan import bake_scene, is_scene_file
+
+STORAGE_ENCODINGS = tuple(ENCODINGS)
+EMIT_LANGS = ("glsl", "hlsl", "wgsl", "c", "warp")
 
 NAME = "bake"
 HELP = "bake a spec file (or the default set) to EXR"
@@ -37,20 +52,34 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default=None, help="bake an engine preset or group (see `bsdf-tab presets`) into -o DIR")
     parser.add_argument(
         "--format", default=None, choices=io.FILE_FORMATS,
-        help="file format (a spec file: default from the -o name, else exr; --preset: default exr)",
+        help="file format (a spec file: default from the -o name, else exr; --preset: the engine's, else exr)",
     )
-    parser.add_argument("--tol", type=float, default=None, help="a scene file: max lookup error (docs/scenes.md)")
+    parser.add_argument(
+        "--tol", type=float, default=None,
+        help="a scene file: max lookup error (docs/scenes.md); otherwise, with --precision auto, as --store-tol",
+    )
+    parser.add_argument(
+        "--precision", default=None, choices=("auto", *STORAGE_ENCODINGS),
+        help="storage of a ktx2 / dds / png file (default: the preset's, else float16 / unorm16); "
+             "auto: the smallest within --store-tol",
+    )
+    parser.add_argument("--store-tol", type=float, default=None,
+                        help="with --precision auto: max error of the stored values (integration + storage)")
+    parser.add_argument("--emit", action="append", default=None, metavar="LANG[,LANG]",
+                        help=f"also write lookup code beside the table: {', '.join(EMIT_LANGS)} (repeat or comma-separate)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Bake one spec file, or the default set when no spec is given, or a preset, or a scene."""
     check_workers(args)
+    args.emit_langs = _emit_langs(args.emit)
     if args.spec and args.preset is None and is_scene_file(args.spec):
         if args.format is not None:
             raise CliError("--format: a scene is baked as EXR tables and manifest.json")
+        if args.precision is not None or args.store_tol is not None or args.emit_langs:
+            raise CliError("--precision, --store-tol and --emit apply to a spec file or --preset, not a scene")
         return bake_scene(args)
-    if args.tol is not None:
-        raise CliError("--tol applies to a scene file (a JSON object with a 'materials' list)")
+    _check_storage_options(args)
     if args.preset is not None:
         return _bake_preset(args)
     if args.format is not None and not args.spec:
@@ -85,14 +114,96 @@ def _bake_one(args: argparse.Namespace) -> int:
     quiet_warp(args)
     if io.can_stream(fmt) and api.streams(spec):
         # directional tables can be large: computed and written in blocks (bounded memory)
+        if args.precision is not None or args.emit_langs:
+            raise CliError(f"--precision and --emit do not apply to a streamed {fmt} bake (a directional table)")
         blocks = api.iter_blocks(spec, device=args.device, workers=args.workers, progress=not args.quiet)
         table = io.write_stream(blocks, out, fmt)
         print(summary(out, table))
         return 0
     table = api.tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
+    _with_storage(table, fmt, args, None)
     _write(table, out, fmt)
-    print(summary(out, table.as_stored(fmt)))
+    stored = table.as_stored(fmt)
+    print(summary(out, stored) + storage_words(table.meta["storage"]))
+    _emit(stored, out, args.emit_langs)
     return 0
+
+
+def storage_words(report: dict) -> str:
+    """``"; storage float16 adds A 2.4e-04, B 8.9e-05"``: what the summary line says of storage."""
+    adds = ", ".join(f"{n} {c['storage_error']:.2g}" for n, c in report.get("channels", {}).items())
+    return f"; storage {report['encoding']} adds {adds or 'nothing'}"
+
+
+def _emit_langs(values: list[str] | None) -> list[str]:
+    """The ``--emit`` languages, in order, each once; CliError naming an unknown one."""
+    langs: list[str] = []
+    for value in values or []:
+        for lang in (v.strip().lower() for v in value.split(",")):
+            if lang not in EMIT_LANGS:
+                raise CliError(f"--emit: unknown language {lang!r}; choose from {', '.join(EMIT_LANGS)}")
+            if lang not in langs:
+                langs.append(lang)
+    return langs
+
+
+def _check_storage_options(args: argparse.Namespace) -> None:
+    """``--tol`` / ``--store-tol`` / ``--precision`` outside a scene: consistent, or one CliError line."""
+    if args.tol is not None:
+        if args.precision != "auto":
+            raise CliError("--tol applies to a scene file (a JSON object with a 'materials' list), "
+                           "or with --precision auto to the stored values")
+        if args.store_tol is not None and args.store_tol != args.tol:
+            raise CliError("give --store-tol or --tol, not both")
+        args.store_tol = args.tol
+    if args.precision == "auto" and args.store_tol is None:
+        raise CliError("--precision auto needs --store-tol T (the max error of the stored values)")
+    if args.store_tol is not None:
+        if args.precision != "auto":
+            raise CliError("--store-tol applies to --precision auto")
+        if not args.store_tol > 0:
+            raise CliError("--store-tol must be > 0")
+    if args.precision is not None and not args.spec and args.preset is None:
+        raise CliError("--precision applies to a spec file or --preset")
+
+
+def _with_storage(table, fmt: str, args: argparse.Namespace, preset_encoding: str | None) -> None:
+    """Set ``table.meta["storage"]``: the encoding the ``fmt`` file uses and its measured errors."""
+    choices = FORMAT_STORAGE[fmt]
+    precision = args.precision
+    if precision == "auto":
+        if len(choices) == 1:
+            raise CliError(f"--precision auto: {fmt} stores only {choices[0]}; "
+                           "choose a texture format (ktx2, dds, png) to pick a storage")
+        try:
+            encoding, report = choose_encoding(table, fmt, args.store_tol)
+        except ValueError as exc:
+            raise CliError(f"--precision auto: {exc}") from None
+    else:
+        encoding = precision or (preset_encoding if preset_encoding in choices else choices[0])
+        if encoding not in choices:
+            raise CliError(f"--precision {encoding}: {fmt} stores {', '.join(choices)}")
+        try:
+            report = storage_report(table, encoding, fmt)
+        except ValueError as exc:
+            raise CliError(f"output {fmt}: {exc}") from None
+    table.meta["storage"] = report
+
+
+def _emit(table, out: Path, langs: list[str]) -> None:
+    """Write the lookup code of ``table`` beside ``out`` for each of ``langs``; print each file."""
+    if not langs:
+        return
+    try:
+        from ..lookup import emit_files
+    except ImportError:
+        raise CliError("lookup code generation is not available") from None
+    try:
+        paths = emit_files(table, out, langs)
+    except ValueError as exc:
+        raise CliError(f"--emit: {exc}") from None
+    for path in paths:
+        print(f"{path}: lookup code")
 
 
 def _write(table, out: Path, fmt: str) -> None:
@@ -130,14 +241,15 @@ def _bake_default_set(args: argparse.Namespace) -> int:
 
             table = api.tabulate(spec, device=args.device, workers=args.workers, progress=advance)
             bar.update(start + texel_count(spec) - bar.n)
+            table.meta["storage"] = storage_report(table, "float32", "exr")
             out = out_dir / name
             io.write(table, out, "exr")
-            bar.write(summary(out, table), file=sys.stdout)
+            bar.write(summary(out, table) + storage_words(table.meta["storage"]), file=sys.stdout)
     return 0
 
 
 def _bake_preset(args: argparse.Namespace) -> int:
-    from ..presets import build_preset, expand_preset
+    from ..presets import build_preset, expand_preset, get_preset
 
     if args.spec:
         raise CliError("give either a spec file or --preset, not both")
@@ -145,12 +257,16 @@ def _bake_preset(args: argparse.Namespace) -> int:
         names = expand_preset(args.preset)
     except ValueError as exc:
         raise CliError(str(exc)) from None
-    fmt = args.format or "exr"
     out_dir = output_folder(args.output, "--preset")
     quiet_warp(args)
     for name in names:
+        preset = get_preset(name)
+        fmt = args.format or getattr(preset, "file_format", None) or "exr"
         table = build_preset(name, device=args.device, workers=args.workers, progress=not args.quiet)
+        _with_storage(table, fmt, args, getattr(preset, "storage", None))
         out = io.output_path(out_dir, name.replace("-", "_"), fmt)
         _write(table, out, fmt)
-        print(summary(out, table.as_stored(fmt)))
+        stored = table.as_stored(fmt)
+        print(summary(out, stored) + storage_words(table.meta["storage"]))
+        _emit(stored, out, args.emit_langs)
     return 0

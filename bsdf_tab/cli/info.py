@@ -1,4 +1,10 @@
-"""``bsdf-tab info FILE``: axes, channels, conventions, method and max error of a table file."""
+"""``bsdf-tab info FILE``: axes, channels, conventions, method, max error and storage of a table file.
+
+Any readable format of :mod:`bsdf_tab.io` (``.exr``, ``.half.exr``, ``.npz``, ``.json``,
+``.meta.json``, ``.ktx2``, ``.png``). The storage section is ``meta["storage"]``
+(:mod:`bsdf_tab.io.storage`): per channel the integration error, the error the file's storage
+adds (float16 rounding, quantization, the clamp to [0, 1]) and the stored bound.
+"""
 
 from __future__ import annotations
 
@@ -6,12 +12,14 @@ import argparse
 import json
 from pathlib import Path
 
+from .common import CliError
+
 NAME = "info"
 HELP = "describe a table file"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="a table file written by bsdf-tab (.exr)")
+    parser.add_argument("file", help="a table file written by bsdf-tab (.exr, .half.exr, .npz, .json, .ktx2, .png, ...)")
 
 
 def _text(value) -> str:
@@ -48,14 +56,40 @@ def info_lines(path: Path, table) -> list[str]:
     errors = table.max_error()
     lines.append("max error:")
     lines.extend([f"  {name}: {err:.3g}" for name, err in errors.items()] or ["  no error channels"])
+    lines.extend(storage_lines(meta.get("storage")))
     lines.append(f"version: {meta.get('version', 'not recorded')}")
+    return lines
+
+
+def _num(value) -> str:
+    return "n/a" if value is None else f"{value:.3g}"
+
+
+def storage_lines(storage) -> list[str]:
+    """The storage section of ``bsdf-tab info``: the encoding and, per channel, its errors."""
+    if not isinstance(storage, dict) or "encoding" not in storage:
+        return ["storage: not recorded"]
+    where = ", ".join(str(x) for x in (storage.get("format"), storage.get("vk_format")) if x)
+    lines = [f"storage: {storage['encoding']}" + (f" ({where})" if where else "")
+             + f", {storage.get('bytes_per_texel', '?')} bytes per texel"]
+    for name, c in storage.get("channels", {}).items():
+        clamp = f", clamp {_num(c.get('clamp_error'))}" if c.get("clamp_error") else ""
+        lines.append(f"  {name}: integration {_num(c.get('integration_error'))}, storage "
+                     f"{_num(c.get('storage_error'))}{clamp}, stored {_num(c.get('total_error'))}")
     return lines
 
 
 def run(args: argparse.Namespace) -> int:
     """Print a description of a table file."""
-    from .. import read_exr
+    from .. import io
+    from ..table import Table
 
     path = Path(args.file)
-    print("\n".join(info_lines(path, read_exr(path))))
+    try:
+        table = io.read(path, factory=Table)
+    except FileNotFoundError:
+        raise CliError(f"no such file: {path}") from None
+    except ValueError as exc:  # a FormatError (unknown ending, write-only format) is one too
+        raise CliError(str(exc)) from None
+    print("\n".join(info_lines(path, table)))
     return 0

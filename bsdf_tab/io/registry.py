@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 from typing import Callable, Iterable
 
-from . import c_header, exr, half_exr, npy, npy_channels, npz
+from . import c_header, dds, exr, half_exr, ktx2, npy, npy_channels, npz, png
 from . import json as json_format
 from .base import Format, FormatError
 
@@ -44,6 +44,9 @@ FORMATS: dict[str, Format] = {
         npy_channels.FORMAT,
         json_format.FORMAT,
         c_header.FORMAT,
+        ktx2.FORMAT,
+        dds.FORMAT,
+        png.FORMAT,
     )
 }
 

@@ -8,12 +8,23 @@ name in :data:`_ENGINES`; a group of the same name lists its presets.
 
 from __future__ import annotations
 
-from . import cycles, filament, openpbr, unity
+from . import bevy, cycles, eevee, filament, godot, gltf, openpbr, threejs, unity, unreal
 from .recipe import Preset
 
 __all__ = ["GROUPS", "PRESETS"]
 
-_ENGINES = {"cycles": cycles, "openpbr": openpbr, "filament": filament, "unity": unity}
+_ENGINES = {
+    "cycles": cycles,
+    "openpbr": openpbr,
+    "filament": filament,
+    "unity": unity,
+    "eevee": eevee,
+    "gltf": gltf,
+    "godot": godot,
+    "bevy": bevy,
+    "threejs": threejs,
+    "unreal": unreal,
+}
 
 #: Preset name -> :class:`~.recipe.Preset`, engine by engine.
 PRESETS: dict[str, Preset] = {p.name: p for module in _ENGINES.values() for p in module.PRESET_LIST}

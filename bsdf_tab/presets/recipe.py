@@ -57,6 +57,12 @@ class Preset:
         ``<folder>/<file>.npy`` of the peer's own table in the anchors folder, if shipped there.
     anchor_axes : dict
         Output axis name -> anchor axis file, for checking axes against the peer's.
+    file_format : str or None
+        The registry format the engine loads (``ktx2``, ``dds``, ``png``); ``bake --preset``
+        writes it unless ``--format`` says otherwise (None: ``exr``).
+    storage : str or None
+        The engine's storage encoding (:data:`bsdf_tab.io.storage.ENCODINGS`: ``float16``,
+        ``unorm16``, ...), used by the texture formats unless ``--precision`` says otherwise.
     """
 
     name: str
@@ -73,6 +79,8 @@ class Preset:
     clamp01: bool = False
     anchor: str | None = None
     anchor_axes: dict = field(default_factory=dict)
+    file_format: str | None = None
+    storage: str | None = None
 
     @property
     def shape(self) -> tuple[int, ...]:
