@@ -21,9 +21,11 @@ from .tables import KINDS, Context
 from .version import __version__
 
 __all__ = ["BlockStream", "METHOD_TEXT", "conventions", "iter_blocks", "quiet_warp", "streams",
-           "table_meta", "tabulate"]
+           "table_meta", "tabulate", "tabulate_many"]
 
 ProgressArg = bool | Callable[[int, int], None]
+#: A ``distributed.Client``, a scheduler address (``tcp://host:8786``) or ``"local:N"``.
+Scheduler = object
 
 _SHADOWING_TEXT = {
     "separable": "separable G = G1(i) G1(o) (Walter 2007)",
@@ -125,6 +127,7 @@ def tabulate(
     device: str | None = None,
     workers: int | None = None,
     progress: ProgressArg = False,
+    scheduler: Scheduler | None = None,
 ) -> Table:
     """Compute the table described by ``spec``.
 
@@ -138,6 +141,9 @@ def tabulate(
         CPU worker threads (default: all cores this process may use); must be >= 1.
     progress : bool or callable
         True shows a progress bar on stderr; a callable receives (done, total) texel counts.
+    scheduler : distributed.Client or str, optional
+        Compute on a Dask cluster (:mod:`bsdf_tab.cluster`): a client, a scheduler address or
+        ``"local:N"``. The table is the in-process one bit for bit. Default: in-process threads.
 
     Returns
     -------
@@ -150,8 +156,11 @@ def tabulate(
     SpecError
         If the spec is invalid (the message names the parameter).
     ValueError
-        If ``device`` or ``workers`` is invalid.
+        If ``device``, ``workers`` or ``scheduler`` is invalid (a scheduler that does not
+        answer is a :class:`bsdf_tab.cluster.SchedulerError`, a ValueError).
     """
+    if scheduler is not None:
+        return next(iter(tabulate_many([spec], device=device, progress=progress, scheduler=scheduler)))[1]
     nspec = normalize_spec(spec)
     _check_workers(workers)
     axes = resolve_axes(nspec)
@@ -162,9 +171,53 @@ def tabulate(
     finally:
         if bar is not None:
             bar.close()
+    return _table(nspec, axes, channels)
+
+
+def _table(nspec: dict, axes: dict, channels: dict) -> Table:
     table = Table(axes=axes, channels=channels, meta={})
     table.meta = table_meta(nspec, table.max_error())
     return table
+
+
+def tabulate_many(
+    specs,
+    *,
+    device: str | None = None,
+    workers: int | None = None,
+    progress: ProgressArg = False,
+    scheduler: Scheduler | None = None,
+) -> Iterator[tuple[int, Table]]:
+    """Compute several tables; yield ``(index into specs, Table)`` as each one is done.
+
+    In-process the tables come one after the other, in order. With a ``scheduler`` every
+    chunk of every table is submitted at once (one graph: the workers stay busy across
+    tables) and each table is yielded as its last chunk returns, so a caller writes it
+    while the others compute. Parameters as for :func:`tabulate`; ``progress`` counts the
+    texels of all tables.
+    """
+    nspecs = [normalize_spec(s) for s in specs]
+    _check_workers(workers)
+    if scheduler is None:
+        for i, nspec in enumerate(nspecs):
+            yield i, tabulate(nspec, device=device, workers=workers, progress=progress)
+        return
+    from . import cluster
+
+    client, owned = cluster.connect(scheduler)
+    callback, bar = _progress(progress, "tables")
+    try:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        axes = [resolve_axes(n) for n in nspecs]
+        tasks = [cluster.submit_table(client, i, n, a, n_workers=n_workers, device=device)
+                 for i, (n, a) in enumerate(zip(nspecs, axes))]
+        for i, channels in cluster.completed(client, tasks, callback):
+            yield i, _table(nspecs[i], axes[i], channels)
+    finally:
+        if bar is not None:
+            bar.close()
+        if owned:
+            cluster.close(client)
 
 
 def streams(spec: dict | str) -> bool:
@@ -216,12 +269,14 @@ def iter_blocks(
     workers: int | None = None,
     progress: ProgressArg = False,
     block_texels: int | None = None,
+    scheduler: Scheduler | None = None,
 ) -> BlockStream:
     """The table of ``spec`` as a stream of blocks of axis-0 slices (bounded memory).
 
     Kinds computed in blocks (:func:`streams`) yield about ``block_texels`` texels per block;
-    the others yield the whole table as one block. The values are those of :func:`tabulate`
-    bit for bit. Parameters as for :func:`tabulate`.
+    the others yield the whole table as one block. With a ``scheduler`` the blocks are the
+    cluster's chunks, in the order they complete (a streaming writer takes any order). The
+    values are those of :func:`tabulate` bit for bit. Parameters as for :func:`tabulate`.
     """
     nspec = normalize_spec(spec)
     _check_workers(workers)
@@ -229,7 +284,7 @@ def iter_blocks(
                                      or block_texels < 1):
         raise ValueError(f"block_texels must be a positive integer, got {block_texels!r}")
     axes = resolve_axes(nspec)
-    dev = resolve_device(device)
+    dev = resolve_device(device) if scheduler is None else None
     kind = KINDS[nspec["table"]]
     names = list(kind["channels"]) + [f"{c}_err" for c in kind["channels"]]
 
@@ -237,7 +292,9 @@ def iter_blocks(
         callback, bar = _progress(progress, nspec["table"])
         ctx = Context(dev, workers, callback)
         try:
-            if "blocks" in kind:
+            if scheduler is not None:
+                yield from _cluster_blocks(nspec, axes, scheduler, device, block_texels, callback)
+            elif "blocks" in kind:
                 extra = {} if block_texels is None else {"block_texels": block_texels}
                 yield from kind["blocks"](nspec, axes, ctx, **extra)
             else:
@@ -248,3 +305,21 @@ def iter_blocks(
                 bar.close()
 
     return BlockStream(nspec=nspec, axes=axes, channel_names=names, _blocks=generate())
+
+
+def _cluster_blocks(nspec, axes, scheduler, device, block_texels, callback):
+    """Blocks of axis-0 slices computed on a cluster (a kind chunked on another axis: one block)."""
+    from . import cluster
+
+    client, owned = cluster.connect(scheduler)
+    try:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        task = cluster.submit_table(client, 0, nspec, axes, n_workers=n_workers, target=block_texels, device=device)
+        if task.axis == 0:
+            yield from cluster.completed_chunks(client, task, callback)
+        else:
+            for _i, channels in cluster.completed(client, [task], callback):
+                yield 0, len(next(iter(axes.values()))), channels
+    finally:
+        if owned:
+            cluster.close(client)

@@ -7,7 +7,8 @@ axis, ``"one"``: Fresnel-independent), ``description``, and the functions: ``com
 axes, ctx) -> channels`` and, for kinds computed in blocks of axis-0 slices (tables too large to
 hold), ``blocks(nspec, axes, ctx, block_texels)``. Optional: ``methods`` (the only methods the
 kind accepts), ``params`` (kind-only top-level keys) and ``parametrizations`` (name -> axis
-slots). :mod:`bsdf_tab.spec` validates against :data:`CATALOG`; :mod:`bsdf_tab.api` is the only
+slots), ``chunk_axis`` (the axis a cluster cuts the table along; default 0).
+:mod:`bsdf_tab.spec` validates against :data:`CATALOG`; :mod:`bsdf_tab.api` is the only
 caller of the functions.
 
 Adding a table kind: a module here with its ``KINDS``, and its name in :data:`_MODULES`.

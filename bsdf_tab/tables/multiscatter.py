@@ -57,5 +57,7 @@ KINDS = {
         "description": "Kulla-Conty 2017 multiple-scattering compensation: single-scattering E (F = 1), "
         "E_avg (repeated along mu) and C = (1 - E) / sqrt(pi (1 - E_avg)), so f_ms(i, o) = C(mu_i) C(mu_o)",
         "compute": compute,
+        # chunked along alpha on a cluster: E_avg(alpha) is computed once per alpha
+        "chunk_axis": 1,
     },
 }

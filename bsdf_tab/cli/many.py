@@ -1,0 +1,159 @@
+"""Baking many tables at once: the default set, a preset group, a material library.
+
+In-process the tables are computed one after the other; with ``--scheduler ADDRESS|local:N``
+(or ``BSDF_TAB_SCHEDULER``) every chunk of every table goes to a Dask cluster as one graph and
+each table is written as soon as it completes. ``--resume`` skips tables whose file exists
+(every file is written atomically, so an existing file is a whole table). An interrupted bake
+leaves no partial file and says how many tables it wrote.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Callable
+
+from .. import io
+from ..spec import texel_count
+from .common import PROG, CliError, quiet_warp, summary
+
+__all__ = ["add_cluster_arguments", "bake_library", "bake_specs", "is_library_file", "scheduler_of"]
+
+SCHEDULER_ENV = "BSDF_TAB_SCHEDULER"
+
+
+def add_cluster_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--scheduler`` and ``--resume``."""
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS|local:N",
+                        help=f"bake on a Dask cluster: tcp://host:8786, or local:N worker processes "
+                             f"(default: ${SCHEDULER_ENV}, else in-process threads)")
+    parser.add_argument("--resume", action="store_true",
+                        help="skip tables whose output file already exists (a rerun after an interruption)")
+
+
+def scheduler_of(args: argparse.Namespace) -> str | None:
+    """The scheduler asked for: ``--scheduler``, else ``$BSDF_TAB_SCHEDULER``, else None."""
+    value = getattr(args, "scheduler", None) or os.environ.get(SCHEDULER_ENV) or None
+    if value is not None:
+        from ..cluster import parse_scheduler
+
+        parse_scheduler(value)  # a malformed value is one line before anything starts
+    return value
+
+
+def _bar(total: int, quiet: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="texel", unit_scale=True, file=sys.stderr, disable=quiet, desc=PROG)
+
+
+def bake_specs(args: argparse.Namespace, jobs: list[tuple[Path, dict]], fmt: str = "exr",
+               finish: Callable | None = None) -> int:
+    """Compute and write ``jobs`` (output path, normalized spec), each table as it completes.
+
+    ``finish(index, table) -> table`` may turn a computed table into what is written (presets).
+    """
+    todo = [(out, spec) for out, spec in jobs if not (getattr(args, "resume", False) and out.exists())]
+    skipped = len(jobs) - len(todo)
+    if skipped:
+        print(f"{PROG}: --resume: {skipped} of {len(jobs)} tables exist, skipped", file=sys.stderr)
+    if not todo:
+        return 0
+    scheduler = scheduler_of(args)
+    quiet_warp(args)
+    client, owned = None, False
+    if scheduler:
+        client, owned = connect_cluster(scheduler)
+    try:
+        return _bake(args, todo, fmt, finish, client)
+    finally:
+        if owned:
+            from ..cluster import close
+
+            close(client)
+
+
+def connect_cluster(scheduler: str):
+    """(client, owned) for ``scheduler``, with its dashboard link on stderr; one line if unreachable."""
+    from ..cluster import SchedulerError, connect, dashboard_link
+
+    try:
+        client, owned = connect(scheduler)
+    except SchedulerError as exc:
+        raise CliError(str(exc)) from None
+    n = len(client.scheduler_info().get("workers", {}))
+    link = dashboard_link(client)
+    print(f"{PROG}: scheduler {client.scheduler.address}, {n} workers"
+          + (f", dashboard {link}" if link else ""), file=sys.stderr)
+    return client, owned
+
+
+def _bake(args, todo, fmt, finish, client) -> int:
+    from .. import api
+
+    written = 0
+    with _bar(sum(texel_count(s) for _, s in todo), args.quiet) as bar:
+        try:
+            for i, table in _tables(api, args, todo, client, bar):
+                out = todo[i][0]
+                out.parent.mkdir(parents=True, exist_ok=True)
+                if finish is not None:
+                    table = finish(i, table)
+                io.write(table, out, fmt)
+                written += 1
+                bar.write(summary(out, table.as_stored(fmt)), file=sys.stdout)
+        except KeyboardInterrupt:
+            print(f"{PROG}: interrupted: {written} of {len(todo)} tables written (whole files only); "
+                  "rerun with --resume to finish", file=sys.stderr)
+            raise
+    return 0
+
+
+def _tables(api, args, todo, client, bar):
+    """(index, Table) for each job: on the cluster as they complete, else one after the other."""
+    if client is not None:
+        def advance(done: int, total: int) -> None:
+            bar.update(max(0, int(bar.total * done / total if total else 0) - bar.n))
+
+        yield from api.tabulate_many([s for _, s in todo], device=args.device, progress=advance,
+                                     scheduler=client)
+        return
+    for i, (_out, spec) in enumerate(todo):
+        start, n = bar.n, texel_count(spec)
+
+        def advance(done, total, start=start, n=n):
+            # the integrators count their own work items (an *_avg table integrates several mu
+            # per texel): scale them onto this table's share of the bar, never backwards
+            bar.update(max(0, start + int(n * done / total if total else 0) - bar.n))
+
+        table = api.tabulate(spec, device=args.device, workers=args.workers, progress=advance)
+        bar.update(start + n - bar.n)
+        yield i, table
+
+
+def is_library_file(path: str) -> bool:
+    """A bake input that is a material library (a top-level ``library`` table)."""
+    from ..library import is_library
+    from ..scene import load_scene_file
+
+    try:
+        return is_library(load_scene_file(path))
+    except Exception:  # noqa: BLE001 - the other loaders report what is wrong with the file
+        return False
+
+
+def bake_library(args: argparse.Namespace) -> int:
+    """``bsdf-tab bake LIBRARY [-o DIR]``: every material's tables under ``DIR/<material>/``."""
+    from ..library import library_specs
+    from ..scene import load_scene_file
+
+    try:
+        specs = library_specs(load_scene_file(args.spec))
+    except ValueError as exc:  # SpecError: one line naming the library parameter
+        raise CliError(f"{args.spec}: {exc}") from None
+    out_dir = Path(args.output or "luts")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise CliError(f"output {out_dir} exists and is not a folder (a library is baked into -o DIR)")
+    return bake_specs(args, [(out_dir / rel, spec) for rel, spec in specs])
