@@ -1,8 +1,10 @@
 """Tables as Dask tasks: chunks of an outer axis, submitted together, assembled as they finish.
 
 Every table is cut along one axis (the kind's ``chunk_axis``, default the first: whole slices
-keep the chunks regular and the kernels' work per chunk alike) into chunks of about
-:func:`chunk_texels` texels. All chunks of all tables go to the scheduler at once (one graph:
+keep the chunks regular) into chunks of about :func:`chunk_texels` texels. A chunk takes every
+n-th slice (slices j, j + n, j + 2n, ...), not a run of neighbours: texels near grazing cost
+several times more than the others, and interleaving spreads them over the chunks, so the
+workers finish together. All chunks of all tables go to the scheduler at once (one graph:
 the workers stay busy across table boundaries); :func:`completed` yields each table's channels
 as soon as its last chunk is back. Tasks are pure: a worker lost mid-bake has its chunks rerun
 elsewhere by the scheduler, with the same result.
@@ -33,10 +35,14 @@ def chunk_texels(total: int, n_workers: int) -> int:
     return int(min(MAX_CHUNK_TEXELS, max(MIN_CHUNK_TEXELS, want)))
 
 
-def chunks(n_axis: int, per_slice: int, target: int) -> list[tuple[int, int]]:
-    """Slices ``lo:hi`` of an axis of ``n_axis`` values, about ``target`` texels each."""
-    step = max(1, target // max(1, per_slice))
-    return [(lo, min(n_axis, lo + step)) for lo in range(0, n_axis, step)]
+def chunks(n_axis: int, per_slice: int, target: int) -> list[np.ndarray]:
+    """Slice indices of each chunk of an axis of ``n_axis`` values, about ``target`` texels each.
+
+    Chunk j of n holds the slices j, j + n, j + 2n, ... (interleaved: see the module docstring).
+    """
+    per_chunk = max(1, target // max(1, per_slice))
+    n = -(-n_axis // per_chunk)
+    return [np.arange(j, n_axis, n) for j in range(n)]
 
 
 @dataclass
@@ -45,7 +51,7 @@ class TableTasks:
 
     index: int
     axis: int
-    spans: list[tuple[int, int]]
+    spans: list[np.ndarray]
     futures: list
     texels: list[int]
     pending: set = field(default_factory=set)
@@ -60,8 +66,8 @@ def submit_table(client, index: int, nspec: dict, axes: dict, *, n_workers: int,
     total = math.prod(sizes)
     spans = chunks(sizes[axis], per_slice, target or chunk_texels(total, n_workers))
     axes = {n: np.asarray(v, dtype=np.float64) for n, v in axes.items()}
-    futures = [client.submit(compute_chunk, nspec, axes, axis, lo, hi, device, pure=True) for lo, hi in spans]
-    texels = [(hi - lo) * per_slice for lo, hi in spans]
+    futures = [client.submit(compute_chunk, nspec, axes, axis, idx, device, pure=True) for idx in spans]
+    texels = [len(idx) * per_slice for idx in spans]
     return TableTasks(index, axis, spans, futures, texels, set(range(len(futures))))
 
 
@@ -90,17 +96,23 @@ def completed(client, tables: list[TableTasks],
         if progress is not None:
             progress(done, total)
         if not t.pending:
-            parts = client.gather(t.futures)
-            names = list(parts[0])
-            yield t.index, {n: np.concatenate([p[n] for p in parts], axis=t.axis) for n in names}
+            yield t.index, _assemble(t, client.gather(t.futures))
+
+
+def _assemble(t: TableTasks, parts: list[dict]) -> dict:
+    """The table's channels from its chunks (each holding the slices ``t.spans[k]``)."""
+    order = np.concatenate(t.spans)
+    back = np.empty_like(order)
+    back[order] = np.arange(order.size)  # position of slice i in the concatenation
+    return {n: np.take(np.concatenate([p[n] for p in parts], axis=t.axis), back, axis=t.axis) for n in parts[0]}
 
 
 def completed_chunks(client, table: TableTasks,
                      progress: Callable[[int, int], None] | None = None) -> Iterator[tuple[int, int, dict]]:
-    """Yield ``(lo, hi, channels)`` for each chunk of one table as it completes (any order).
+    """Yield ``(lo, lo + 1, channels)`` for each axis slice of one table, chunk by chunk as the
+    chunks complete (any order; a streaming writer takes any order).
 
-    Each chunk's result leaves the cluster once yielded, so a streaming writer holds one chunk
-    at a time.
+    Each chunk's result leaves the cluster once yielded, so a writer holds one chunk at a time.
     """
     from distributed import as_completed
 
@@ -115,5 +127,5 @@ def completed_chunks(client, table: TableTasks,
         done += table.texels[k]
         if progress is not None:
             progress(done, total)
-        lo, hi = table.spans[k]
-        yield lo, hi, channels
+        for j, i in enumerate(table.spans[k]):
+            yield int(i), int(i) + 1, {n: np.take(v, [j], axis=table.axis) for n, v in channels.items()}

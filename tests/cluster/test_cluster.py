@@ -57,7 +57,7 @@ def test_local_cluster_tables_equal_in_process(client, in_process):
         assert t.meta == in_process[name].meta
 
 
-@pytest.mark.parametrize("target,n_chunks", [(1, 6), (16, 3), (10_000, 1)])
+@pytest.mark.parametrize("target,n_chunks", [(1, 6), (16, 3), (24, 2), (10_000, 1)])
 def test_any_chunking_gives_the_same_table(client, in_process, target, n_chunks):
     nspec = normalize_spec(DIELECTRIC)
     axes = resolve_axes(nspec)
