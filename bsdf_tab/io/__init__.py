@@ -18,6 +18,18 @@ presets and the HTTP service (``format=``), and one meaning under that name:
 - ``json`` (``.json``, ``application/json``): axes, shape, channels (``null`` for
   non-finite values), meta; strict, compact.
 - ``h`` (``.h``, ``text/x-c``): a C99 / C++ header of static arrays (write-only).
+- ``ktx2`` (``.ktx2``, ``image/ktx2``): a KTX 2.0 GPU texture (R16G16_SFLOAT, R32G32_SFLOAT,
+  R16G16_UNORM, R8G8_UNORM, A2B10G10R10_UNORM_PACK32, ...), linear, with a data format
+  descriptor and the axes, lookup convention and meta in its key/value data; read back as stored.
+- ``dds`` (``.dds``, ``image/vnd-ms.dds``): DirectDraw Surface with the DX10 header, the same
+  encodings (write-only: no room for metadata).
+- ``png`` (``.png``, ``image/png``): 16-bit (or 8-bit) PNG, linear data, metadata in ``tEXt``;
+  read back as stored.
+
+The texture formats store value channels in one encoding (:mod:`~bsdf_tab.io.storage`:
+float32, float16, unorm16, unorm10, unorm8; ``meta["storage"]["encoding"]`` chooses, else the
+format's default) and record in ``meta["storage"]`` the error that storage adds per channel,
+next to the integration error.
 
 A file name's format is its longest matching ending (``lut.half.exr`` is ``half-exr``;
 ``S.meta.json`` is ``npy-channels``, any other ``.json`` is ``json``), case-insensitively.
@@ -63,7 +75,10 @@ This package never imports :mod:`bsdf_tab.table`: writers take any object with `
 Modules: :mod:`~bsdf_tab.io.base` (the table-like protocol, :class:`Format`, JSON helpers),
 :mod:`~bsdf_tab.io.atomic`, one module per format (:mod:`~bsdf_tab.io.exr`,
 :mod:`~bsdf_tab.io.half_exr`, :mod:`~bsdf_tab.io.npz`, :mod:`~bsdf_tab.io.npy`,
-:mod:`~bsdf_tab.io.npy_channels`, :mod:`~bsdf_tab.io.json`, :mod:`~bsdf_tab.io.c_header`),
+:mod:`~bsdf_tab.io.npy_channels`, :mod:`~bsdf_tab.io.json`, :mod:`~bsdf_tab.io.c_header`,
+:mod:`~bsdf_tab.io.ktx2`, :mod:`~bsdf_tab.io.dds`, :mod:`~bsdf_tab.io.png`; their shared texture
+layout :mod:`~bsdf_tab.io.texture`; the encodings and measured storage errors
+:mod:`~bsdf_tab.io.storage`),
 :mod:`~bsdf_tab.io.registry`, and :mod:`~bsdf_tab.io.stream` (tables too large to hold).
 """
 
