@@ -12,7 +12,7 @@ from importlib import metadata
 from typing import Callable
 
 from ..errors import SpecError
-from . import bake, bench, info, plan, presets
+from . import bake, bench, check, info, plan, presets
 from .common import PROG, CliError
 
 #: Subcommand name -> (help text, configure(parser), handler(args) -> int).
@@ -39,7 +39,7 @@ def register_command(name: str, help: str, configure: Callable, handler: Callabl
     COMMANDS[name] = (help, configure, handler)
 
 
-for _module in (bake, info, presets, plan, bench):
+for _module in (bake, info, presets, plan, bench, check):
     register_command(_module.NAME, _module.HELP, _module.configure, _module.run)
 
 

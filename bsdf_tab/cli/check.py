@@ -1,0 +1,67 @@
+"""``bsdf-tab check LUT``: the LUT doctor (:mod:`bsdf_tab.doctor`).
+
+Reads a LUT (EXR, KTX2, DDS, PNG, ``.npy``, or a C/C++/JS array file with ``--shape``),
+identifies what it is against exact tables baked on the fly, and prints the best match, its
+error and where, and the mistakes it sees; ``--json`` prints the report as one JSON object,
+``--heatmap PNG`` writes the error map.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from .common import CliError, quiet_warp
+
+NAME = "check"
+HELP = "identify a LUT file and report what is wrong with it (the LUT doctor)"
+
+
+def _shape(text: str) -> tuple[int, ...]:
+    try:
+        shape = tuple(int(x) for x in text.replace("x", ",").split(",") if x.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be integers separated by commas (32,32 or 16,16,2), got {text!r}")
+    if not 1 <= len(shape) <= 3 or min(shape) < 1:
+        raise argparse.ArgumentTypeError(f"must be 1 to 3 positive sizes, got {text!r}")
+    return shape
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    from ..doctor import ARRAY_VALUES
+
+    parser.add_argument("lut", help="the LUT file: .exr, .ktx2, .dds, .png, .npy, or a C/C++/JS array file")
+    parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    parser.add_argument("--heatmap", metavar="PNG", help="write a heatmap of |file - best match| to this PNG")
+    parser.add_argument("--shape", type=_shape, metavar="H,W[,C]", help="shape of an array file's numbers")
+    parser.add_argument("--array-values", choices=ARRAY_VALUES, default="float",
+                        help="how an array file's numbers are read (half: IEEE binary16 bit patterns)")
+    parser.add_argument("--axes", metavar="ROWS,COLUMNS",
+                        help="the axes you believe the file has, rows first (e.g. mu,roughness): "
+                             "the report says if the data disagrees")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from ..doctor import check_lut
+
+    quiet_warp(args)
+    path = Path(args.lut)
+    if not path.is_file():
+        raise CliError(f"LUT file not found: {path}")
+    expect = None
+    if args.axes:
+        expect = [a.strip() for a in args.axes.split(",")]
+        if len(expect) != 2 or not all(expect):
+            raise CliError(f"--axes: give two names, rows first (mu,roughness), got {args.axes!r}")
+    report = check_lut(path, shape=args.shape, array_values=args.array_values, expect_axes=expect,
+                       heatmap=args.heatmap)
+    if args.json:
+        print(json.dumps(report.to_dict(), allow_nan=False))
+    else:
+        print(report.text())
+        if args.heatmap:
+            print(f"  heatmap: {args.heatmap}", file=sys.stderr)
+    return 0

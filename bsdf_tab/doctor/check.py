@@ -1,0 +1,286 @@
+"""``check_lut``: read a LUT, identify it, check the winner exactly, and say what is wrong.
+
+After :func:`bsdf_tab.doctor.fit.search` ranks the hypotheses, the best one is baked exactly
+at the file's nodes (every node up to 16 per axis, else 16 evenly chosen nodes; the report
+says how many texels were checked), and from the residual against that exact table:
+
+- a clamped mu end: the node at mu = 0 fits mu = 1e-4 (Cycles), 7.96e-4 (theta <= 1.57, the
+  LTC fit), 1e-3 or 1e-2 better than mu = 0 (exactly: the screening spline cannot tell them);
+- storage: the file's own (8/10/16-bit UNORM, float16) or values on a 1/255, 1/1023 or
+  1/65535 grid;
+- noise: the texel-to-texel part of the residual (the residual minus its 3 x 3 neighbourhood
+  mean) above what the storage explains, and how much larger it is at grazing (mu < 0.25);
+- the file's claims (a bsdf-tab file's axes, or ``expect_axes``) against what was found:
+  axes swapped, roughness mapped as alpha, a node convention other than the one claimed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..lookup import fit_axis
+from .exact import exact_at
+from .fit import NODE_TYPES, Hypothesis, encodings, search
+from .readers import LutImage, LutReadError, read_lut, read_lut_bytes
+from .report import Report
+
+__all__ = ["MU_CLAMPS", "check_image", "check_lut", "check_lut_bytes"]
+
+#: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
+MU_CLAMPS = {1e-4: "1e-4 (Cycles' clamp)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
+             1e-3: "1e-3", 1e-2: "1e-2"}
+MAX_CHECK = 16
+_BITS = {"unorm8": 8, "unorm10": 10, "unorm16": 16}
+
+
+def _subsample(n: int) -> np.ndarray:
+    if n <= MAX_CHECK:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, MAX_CHECK)).astype(int))
+
+
+def _quantization(img: LutImage, data: np.ndarray) -> tuple[str, float]:
+    """The storage (``unorm8`` ...) and its step, from the file or from the values' grid."""
+    if img.storage in _BITS:
+        return img.storage, 1.0 / (2 ** _BITS[img.storage] - 1)
+    finite = data[np.isfinite(data)]
+    for name, bits in _BITS.items():
+        scale = 2**bits - 1
+        if finite.size and np.abs(finite * scale - np.round(finite * scale)).max() < 1e-3 and img.storage != "float16":
+            return name, 1.0 / scale
+    if img.storage == "float16" or (finite.size and np.array_equal(finite.astype(np.float16).astype(np.float64), finite)):
+        return "float16", 0.0
+    return img.storage, 0.0
+
+
+def _hf(r: np.ndarray) -> np.ndarray:
+    """Residual minus the mean of its (up to 8) neighbours: the texel-to-texel part."""
+    pad = np.pad(r, 1, mode="edge")
+    H, W = r.shape
+    acc = sum(pad[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx)
+    return r - acc / 8.0
+
+
+def _claimed_axes(img: LutImage, expect_axes) -> list[dict] | None:
+    """The file's (or the caller's) axes: name and, when values are known, their mapping."""
+    if expect_axes:
+        return [{"name": n} for n in expect_axes]
+    axes = img.claims.get("axes")
+    if isinstance(axes, dict):  # the texture formats' form: {name: values}
+        axes = [[name, values] for name, values in axes.items()]
+    if isinstance(axes, list) and len(axes) == 2 and all(isinstance(a, list) and len(a) == 2 for a in axes):
+        out = []
+        for name, values in axes:
+            a = fit_axis(str(name), values)
+            out.append({"name": name, "spacing": {"square": "sqrt"}.get(a.spacing, a.spacing) if a.kind == "uniform" else None,
+                        "nodes": a.nodes if a.kind == "uniform" else None})
+        return out
+    return None
+
+
+def _axis_label(h) -> str:
+    return "mu" if h.quantity == "mu" else h.name
+
+
+def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut") -> Report:
+    """Identify a LUT already read (see :func:`check_lut`)."""
+    data = img.data
+    H, W, C = data.shape
+    if H < 4 or W < 4:
+        raise LutReadError(f"a {H} x {W} LUT is too small to identify (at least 4 x 4)")
+    if not np.isfinite(data).all():
+        bad = int((~np.isfinite(data)).sum())
+        nan_note = f"{bad} texels are NaN or infinite (ignored in the fit)"
+    else:
+        nan_note = None
+    spread = np.nanmax(data, axis=(0, 1)) - np.nanmin(data, axis=(0, 1))
+    active = [c for c in range(C) if spread[c] > 1e-6]
+    if not active:
+        raise LutReadError("every channel is constant: nothing to identify")
+    ranked = search(data, active)
+    best = ranked[0]
+    alternatives = _alternatives(ranked)
+    # ---- exact check at the file's nodes
+    ri, ci = _subsample(H), _subsample(W)
+    mu_h, ro_h = best.mu_axis, best.rough_axis
+    mu_rows = best.rows.quantity == "mu"
+    mu_idx, ro_idx = (ri, ci) if mu_rows else (ci, ri)
+    mu_n, ro_n = (H, W) if mu_rows else (W, H)
+    mu_vals = mu_h.values(mu_n)[mu_idx]
+    al_vals = ro_h.values(ro_n)[ro_idx]
+    zero = int(np.argmin(mu_vals))
+    clamp_vals = list(MU_CLAMPS) if mu_vals[zero] < 1e-9 else []
+    exact = exact_at(best.distribution, best.shadowing, np.concatenate([mu_vals, clamp_vals]), al_vals)
+    enc = encodings(data)[best.encoding][np.ix_(ri, ci)]
+    n_mu = len(mu_vals)
+
+    def prediction(values: dict) -> dict:
+        p = {"E": values["E"], "1-E": 1.0 - values["E"], "A": values["A"], "B": values["B"]}
+        return p if mu_rows else {k: v.T for k, v in p.items()}
+
+    def end_error(values: dict) -> float:
+        p = prediction(values)
+        line = (lambda a: a[zero, :]) if mu_rows else (lambda a: a[:, zero])
+        return float(np.mean([np.nanmean(np.abs(line(enc[:, :, c]) - line(p[m])))
+                              for c, m in zip(active, best.meanings)]))
+
+    base = {k: v[:n_mu] for k, v in exact.items()}
+    clamp = clamp_note = None
+    if clamp_vals:  # the mu = 0 node: is it held at a clamp? (exact: the spline cannot tell 0 from 1e-4)
+        err0, options = end_error(base), {}
+        for k, cv in enumerate(clamp_vals):
+            alt = {key: v.copy() for key, v in base.items()}
+            for key in alt:
+                alt[key][zero] = exact[key][n_mu + k]
+            options[cv] = (end_error(alt), alt)
+        cv = min(options, key=lambda v: options[v][0])
+        if options[cv][0] < 0.5 * err0 and err0 - options[cv][0] > 1e-5:
+            clamp, clamp_note, base = cv, MU_CLAMPS[cv], options[cv][1]
+    pred = prediction(base)
+    resid = np.stack([enc[:, :, c] - pred[m] for c, m in zip(active, best.meanings)], axis=-1)
+    absr = np.abs(resid)
+    worst = np.unravel_index(int(np.nanargmax(absr)), absr.shape)
+    storage, step = _quantization(img, data)
+    report = Report(
+        name=name, file_format=img.format, shape=[H, W, C], best=best, alternatives=alternatives,
+        channels=img.channels, active=active, storage=storage, step=step, transfer=img.transfer,
+        max_error=float(np.nanmax(absr)), mean_error=float(np.nanmean(absr)),
+        worst={"row": int(ri[worst[0]]), "column": int(ci[worst[1]]), "channel": img.channels[active[worst[2]]]},
+        checked=[len(ri), len(ci)], mu_clamp=clamp, mu_clamp_note=clamp_note,
+        error_map=np.nanmax(absr, axis=-1), rows_checked=ri, cols_checked=ci,
+        constants={img.channels[c]: float(np.nanmean(data[:, :, c])) for c in range(C) if c not in active},
+    )
+    worst_mu = mu_h.values(mu_n)[ri[worst[0]] if mu_rows else ci[worst[1]]]
+    worst_alpha = ro_h.values(ro_n)[ci[worst[1]] if mu_rows else ri[worst[0]]]
+    report.worst.update(mu=float(worst_mu), alpha=float(worst_alpha))
+    _findings(report, best, resid, mu_rows, mu_vals, step, _claimed_axes(img, expect_axes), nan_note)
+    if heatmap is not None:
+        report.write_heatmap(heatmap)
+    return report
+
+
+def _alternatives(ranked: list[Hypothesis]) -> list[dict]:
+    """The best hypothesis of each other model and of the swapped orientation (how clear the win is)."""
+    out, seen = [], {(ranked[0].distribution, ranked[0].shadowing, ranked[0].rows.quantity)}
+    for h in ranked[1:]:
+        key = (h.distribution, h.shadowing, h.rows.quantity)
+        if key in seen:
+            continue
+        seen.add(key)
+        out.append({"distribution": h.distribution, "shadowing": h.shadowing,
+                    "rows": _axis_label(h.rows), "mean_error": h.score})
+    return out[:6]
+
+
+def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool, mu_vals: np.ndarray,
+              step: float, claimed, nan_note) -> None:
+    f = report.findings
+    if nan_note:
+        f.append(nan_note)
+    if best.score > 0.02:
+        f.append(f"no candidate fits well (best mean error {best.score:.3g}): this may not be an albedo, "
+                 "split-sum or multiscatter table of GGX or Beckmann")
+    if best.encoding == "srgb-decoded":
+        f.append("decoded as sRGB: the values are the sRGB decode of the table (an *_SRGB texture format, or a "
+                 "PNG/KTX2 sRGB tag honoured by the loader); read the LUT as linear data")
+    elif best.encoding == "srgb":
+        f.append("stored sRGB-encoded: the values are the sRGB encode of the table; decode them "
+                 "(or sample through an *_SRGB format) before use")
+    elif report.transfer == "srgb":
+        f.append("the file declares sRGB but holds linear values: a loader that honours the tag decodes the LUT as "
+                 "sRGB; mark it linear (KTX2 transfer function linear, no PNG sRGB/gAMA chunk)")
+    for label, h in (("rows", best.rows), ("columns", best.cols)):
+        if h.reversed:
+            what = "Y flipped" if label == "rows" else "X flipped"
+            extra = " (equivalently x = 1 - mu)" if h.quantity == "mu" and h.spacing == "linear" else ""
+            f.append(f"{what}: the {label} run from {_axis_label(h)} high to low{extra}")
+        offset = NODE_TYPES[h.nodes][1]
+        if offset:
+            size = "half a texel" if abs(offset) == 0.5 else "one texel"
+            f.append(f"grid shifted by {size} along the {label} ({_axis_label(h)}): node i sits at "
+                     f"(i {'+' if offset > 0 else '-'} {abs(offset):g}) / (n - 1), the ends clamped")
+    if claimed:
+        found = [_axis_label(best.rows), _axis_label(best.cols)]
+        names = [str(c["name"]) for c in claimed]
+        slot = lambda n: "rough" if n in ("roughness", "alpha") else n  # noqa: E731
+        if [slot(n) for n in names] == [slot(n) for n in found[::-1]] and slot(found[0]) != slot(found[1]):
+            f.append(f"axes swapped: the file says [{', '.join(names)}], the data is [{', '.join(found)}]")
+            claimed = claimed[::-1]
+        for label, h, c in (("rows", best.rows, claimed[0]), ("columns", best.cols, claimed[1])):
+            cname = str(c["name"])
+            if h.quantity == "rough" and cname in ("roughness", "alpha") and cname != h.name:
+                f.append(f"roughness mapped as {h.name}: the file says the {label} are {cname}, "
+                         f"the data follows {h.coordinate}")
+            if c.get("spacing") and slot(cname) == slot(_axis_label(h)) and c["spacing"] != h.spacing \
+                    and not (h.quantity == "mu" and h.spacing in ("sqrt(1-mu)", "theta")):
+                f.append(f"spacing: the file says {c['spacing']} {cname} along the {label}, the data is "
+                         f"{h.coordinate}")
+            if (c.get("nodes") and slot(cname) == slot(_axis_label(h)) and c["nodes"] != h.nodes
+                    and not NODE_TYPES[h.nodes][1]):
+                f.append(f"grid offset along the {label}: the file says {c['nodes']}, the data sits at {h.nodes} "
+                         "(half a texel for centres against endpoints)")
+    if report.mu_clamp is not None:
+        f.append(f"clamped end: the mu = 0 node holds mu = {report.mu_clamp_note}")
+    bits = _BITS.get(report.storage)
+    if bits:
+        f.append(f"stored at {bits} bits: quantization step 1/{2**bits - 1} = {step:.2g} (up to {step / 2:.2g} per texel)")
+    elif report.storage == "float16":
+        f.append("stored as float16: rounding up to 2.4e-4 for values in [0.5, 1)")
+    # noise: texel-to-texel residual above the storage's share
+    hf = np.sqrt(np.nanmean(np.stack([_hf(resid[:, :, k]) ** 2 for k in range(resid.shape[2])]), axis=0))
+    floor = max(3.0 * step / math.sqrt(12.0), 3e-6)
+    rms = float(np.sqrt(np.nanmean(hf**2)))
+    if rms > floor:
+        graze = mu_vals < 0.25
+        grazing = (hf[graze, :] if mu_rows else hf[:, graze]) if graze.any() else hf
+        rest = (hf[~graze, :] if mu_rows else hf[:, ~graze]) if (~graze).any() else hf
+        g_rms, r_rms = float(np.sqrt(np.nanmean(grazing**2))), float(np.sqrt(np.nanmean(rest**2)))
+        report.noise = {"rms": rms, "grazing_rms": g_rms, "rest_rms": r_rms}
+        if g_rms > 1.5 * r_rms:
+            f.append(f"NDF-sampled noise at grazing angles: Monte Carlo noise (texel-to-texel rms {rms:.2g}) "
+                     f"{g_rms / max(r_rms, 1e-12):.1f} x larger at mu < 0.25 than elsewhere, as an estimator "
+                     "sampling the NDF rather than the visible normals gives")
+        else:
+            f.append(f"Monte Carlo noise: texel-to-texel residual rms {rms:.2g}, even over the table")
+
+
+def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None, heatmap=None) -> Report:
+    """Identify the LUT file ``path``: what it is, how well it matches, and what is wrong with it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        EXR, KTX2, DDS, PNG, ``.npy`` or a C/C++/JS array file.
+    shape : tuple of int, optional
+        The shape of an array file's numbers (``(32, 32)``, ``(16, 16, 2)``).
+    array_values : str
+        How an array file's numbers are read: ``float``, ``half``, ``unorm8``, ``unorm16``.
+    expect_axes : list of str, optional
+        The axis names the user believes the file has, rows first (``["mu", "roughness"]``);
+        a bsdf-tab file's own axes are used when not given.
+    heatmap : str or os.PathLike, optional
+        Write a PNG heatmap of |file - best match| there.
+
+    Returns
+    -------
+    Report
+        ``report.to_dict()`` is the JSON report; ``report.text()`` the human one.
+
+    Raises
+    ------
+    SpecError
+        An unreadable file (``param`` ``lut``), a bad ``shape`` or ``array_values``.
+    """
+    from pathlib import Path
+
+    img = read_lut(path, shape=shape, array_values=array_values)
+    return check_image(img, expect_axes=expect_axes, heatmap=heatmap, name=Path(path).name)
+
+
+def check_lut_bytes(data: bytes, name: str = "lut", *, shape=None, array_values: str = "float",
+                    expect_axes=None, heatmap=None) -> Report:
+    """:func:`check_lut` on a file's bytes (``name`` for formats known by their name only)."""
+    img = read_lut_bytes(data, name, shape=shape, array_values=array_values)
+    return check_image(img, expect_axes=expect_axes, heatmap=heatmap, name=name)
