@@ -1,0 +1,291 @@
+"""The LTC fit over a (mu, alpha) table: deterministic, warm-started, with the L1 metric.
+
+Objective (per texel): the L1 distance between the LTC lobe and the normalized BRDF lobe,
+int |D_ltc(L) - f_r(V, L) cos(theta_L) / E| dL (Heitz et al. 2016, "Real-Time Polygonal-Light
+Shading with Linearly Transformed Cosines", fit the same lobes with a sampled cubed error;
+here the metric that is reported is the one minimized), on a fixed Gauss-Legendre rule in the
+lobe's own micro-normal coordinates (:func:`bsdf_tab.ltc.lobe.lobe_nodes`), normalized by the
+rule's own mass so both lobes integrate to 1 on it.
+
+Optimizer: Nelder-Mead (Nelder and Mead 1965, "A Simplex Method for Function Minimization"),
+batched over the texels of one row of constant mu, in the parameters (beta, ln m11, ln m22, q)
+of :mod:`bsdf_tab.ltc.matrix`, steps relative to the lobe's width; it stops at a relative
+change of the objective below 1e-4 (absolute 1e-6) or an iteration cap, then restarts once from
+its result with half steps (the usual remedy for a collapsed simplex). Rows run from normal
+incidence to grazing (the public code's order). Each texel starts from the best of: the fit of
+the same alpha in the previous row (the warm start) and a cold start independent of any other
+texel (tilt = the lobe's mean direction, isotropic width from a scan of nine scales), so a bad
+neighbour cannot derail a row. Everything is fixed-order float64: the same inputs give the same
+table bit for bit.
+
+Near-mirror: the lobe's coordinates are scale-free (the width enters as ln m11), so small alpha
+needs no special case down to :data:`~bsdf_tab.ltc.lobe.ALPHA_FLOOR`; below it the shape is that
+of the floor (a Dirac lobe has no density), and the metric's error channel says so (2).
+Grazing: V at mu = 0 is exact (G / mu from mu Lambda(mu)); the LTC cannot follow the horizon
+cut of the lobe, and the L1 fit trades the mass it puts below the horizon (which horizon
+clipping removes in shading) against the shape above it.
+"""
+
+from __future__ import annotations
+
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
+
+import numpy as np
+
+from .lobe import ALPHA_FLOOR, lobe_nodes
+from .matrix import density, density_entries, entries_from_params, from_storage, l1_metric, params_from_entries
+
+__all__ = ["FIT_RULE", "METRIC_RULES", "Objective", "fit_rows", "fit_metric", "fit_table", "nelder_mead"]
+
+#: The objective's rules, (nv, nphi, v_panels, phi_panels): a coarse one to get close, then a
+#: fine one (the metric's kink |D - T| needs it) for the restart.
+FIT_RULE = (16, 10, 1, 1)
+FIT_RULE_FINE = (16, 12, 2, 2)
+#: The reported metric: a fine and a coarse rule; the error estimate is their difference.
+METRIC_RULES = ((20, 16, 2, 2), (16, 12, 1, 1))
+_SCAN = np.linspace(-1.5, 2.5, 9)
+#: Columns (alpha values) per independently fitted block.
+BLOCK = 32
+_MAX_ITERS = 240
+
+
+def nelder_mead(fun: Callable, x0: np.ndarray, step: np.ndarray, max_iters: int = _MAX_ITERS,
+                rtol: float = 1e-4, atol: float = 1e-6):
+    """Batched Nelder-Mead: minimize ``fun(idx, X) -> (len(idx),)`` for every row of ``x0``.
+
+    ``fun`` evaluates the objectives of batch members ``idx`` at points X (len(idx), n).
+    Standard coefficients (reflect 1, expand 2, contract 1/2, shrink 1/2); a member stops when
+    its simplex's best and worst values differ by less than rtol |best| + atol.
+    Returns (x_best (B, n), f_best (B,)).
+    """
+    B, n = x0.shape
+    S = np.repeat(x0[:, None, :], n + 1, axis=1)
+    S[:, 1:, :] += np.eye(n)[None] * step[:, None, :]
+    all_idx = np.arange(B)
+    F = fun(np.repeat(all_idx, n + 1), S.reshape(-1, n)).reshape(B, n + 1)
+    active = np.ones(B, dtype=bool)
+    for _ in range(max_iters):
+        order = np.argsort(F, axis=1, kind="stable")
+        S = np.take_along_axis(S, order[..., None], axis=1)
+        F = np.take_along_axis(F, order, axis=1)
+        active &= (F[:, -1] - F[:, 0]) > rtol * np.abs(F[:, 0]) + atol
+        a = all_idx[active]
+        if a.size == 0:
+            break
+        xo = S[a, :n].mean(axis=1)
+        xw = S[a, n]
+        xr = 2.0 * xo - xw
+        fr = fun(a, xr)
+        new_x, new_f = xr.copy(), fr.copy()
+        exp = fr < F[a, 0]
+        if exp.any():
+            xe = 3.0 * xo[exp] - 2.0 * xw[exp]
+            fe = fun(a[exp], xe)
+            better = fe < fr[exp]
+            sel = np.flatnonzero(exp)[better]
+            new_x[sel], new_f[sel] = xe[better], fe[better]
+        con = fr >= F[a, n - 1]
+        shrink = np.zeros(a.size, dtype=bool)
+        if con.any():
+            outside = fr[con] < F[a[con], n]
+            xc = np.where(outside[:, None], xo[con] + 0.5 * (xr[con] - xo[con]), xo[con] + 0.5 * (xw[con] - xo[con]))
+            fc = fun(a[con], xc)
+            ok = np.where(outside, fc <= fr[con], fc < F[a[con], n])
+            sel = np.flatnonzero(con)
+            new_x[sel[ok]], new_f[sel[ok]] = xc[ok], fc[ok]
+            shrink[sel[~ok]] = True
+        keep = ~shrink
+        S[a[keep], n], F[a[keep], n] = new_x[keep], new_f[keep]
+        if shrink.any():
+            b = a[shrink]
+            S[b, 1:] = S[b, :1] + 0.5 * (S[b, 1:] - S[b, :1])
+            F[b, 1:] = fun(np.repeat(b, n), S[b, 1:].reshape(-1, n)).reshape(b.size, n)
+    best = np.argmin(F, axis=1)
+    return S[all_idx, best], F[all_idx, best]
+
+
+class Objective:
+    """The L1 objective of a batch of texels on the fit rule (nodes fixed per texel).
+
+    ``obj(idx, X)``: X holds stored entries (x, y, z, w) of Minv / Minv_11;
+    ``obj.params(idx, P)`` the parameters (beta, ln m11, ln m22, q).
+
+    ``backend``: ``"warp"`` (the kernel of :mod:`bsdf_tab.ltc.kernels`) or ``"numpy"``.
+    """
+
+    def __init__(self, dist, shadowing, mu, alpha, rule=FIT_RULE, backend="warp", device=None):
+        self.L, f, w = lobe_nodes(dist, shadowing, mu, alpha, *rule)
+        mass = w.sum(axis=1, keepdims=True)  # the rule's E: > 0 for every texel with alpha > 0
+        self.wn = 2.0 * w / mass
+        self.mass_f = np.where(f > 0.0, mass / np.where(f > 0.0, f, 1.0), 0.0)  # E / f_k
+        self.count = 0
+        self._kernel = None
+        if backend == "warp":
+            from .kernels import ObjectiveKernel
+
+            self._kernel = ObjectiveKernel(self.L, self.wn, self.mass_f, device)
+
+    def __call__(self, idx, X):
+        self.count += idx.size
+        if self._kernel is not None:
+            return self._kernel(idx, X)
+        d = density_entries(X, self.L[idx])
+        return np.sum(self.wn[idx] * np.maximum(1.0 - d * self.mass_f[idx], 0.0), axis=1)
+
+    def params(self, idx, P):
+        return self(idx, entries_from_params(P))
+
+    def mean_dir_beta(self):
+        """Tilt of the lobe's mean direction (the cold start's beta)."""
+        mx = np.sum(self.wn * self.L[..., 0], axis=1)
+        mz = np.sum(self.wn * self.L[..., 2], axis=1)
+        return np.arctan2(mx, mz)
+
+
+def _cold_start(obj: Objective, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per texel: tilt from the mean direction, isotropic width from a scan of scales."""
+    B = alpha.size
+    beta = obj.mean_dir_beta()
+    base = np.log(np.maximum(alpha, ALPHA_FLOOR))
+    cand = np.zeros((B, _SCAN.size, 4))
+    cand[..., 0] = beta[:, None]
+    cand[..., 1] = cand[..., 2] = base[:, None] + _SCAN[None, :]
+    idx = np.repeat(np.arange(B), _SCAN.size)
+    vals = obj.params(idx, cand.reshape(-1, 4)).reshape(B, _SCAN.size)
+    k = np.argmin(vals, axis=1)
+    return cand[np.arange(B), k], vals[np.arange(B), k]
+
+
+def _steps(x: np.ndarray) -> np.ndarray:
+    """Initial simplex steps: the tilt relative to the lobe's width, the rest fixed."""
+    width = np.exp(np.minimum(x[:, 1], 0.0))
+    return np.stack([np.minimum(0.2, 0.3 * width), np.full(len(x), 0.2), np.full(len(x), 0.2),
+                     np.full(len(x), 0.2)], axis=1)
+
+
+def _entry_steps(e: np.ndarray, scale: float) -> np.ndarray:
+    """Simplex steps in the stored entries: relative to each entry and to the largest."""
+    return scale * (np.abs(e) + 0.1 * np.max(np.abs(e), axis=1, keepdims=True))
+
+
+def _neighbour_pass(obj: Objective, e: np.ndarray, fe: np.ndarray, sweeps: int = 2) -> np.ndarray:
+    """Texels whose alpha-neighbour's fit is better on their own objective restart from it.
+
+    Nelder-Mead can stop in a local minimum; neighbouring texels of one row have nearly the same
+    lobe, so a neighbour's optimum is a good start. Deterministic: fixed order, fixed sweeps.
+    """
+    B = e.shape[0]
+    if B < 2:
+        return e
+    idx = np.arange(B)
+    for _ in range(sweeps):
+        cand_e, cand_f = e.copy(), fe.copy()
+        for shift in (-1, 1):
+            nb = np.clip(idx + shift, 0, B - 1)
+            f_nb = obj(idx, e[nb])
+            take = f_nb < cand_f - 1e-7
+            cand_e[take], cand_f[take] = e[nb][take], f_nb[take]
+        moved = np.flatnonzero(cand_f < fe)
+        if moved.size == 0:
+            break
+        sub = lambda i, X, m=moved: obj(m[i], X)  # noqa: E731  (objective of the moved texels)
+        xs, fs = nelder_mead(sub, cand_e[moved], _entry_steps(cand_e[moved], 0.05), rtol=1e-5, atol=1e-7)
+        better = fs < fe[moved]
+        e[moved[better]], fe[moved[better]] = xs[better], fs[better]
+    return e
+
+
+def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
+             progress: Callable[[int], None] | None = None, backend: str = "warp", device=None) -> np.ndarray:
+    """Fitted stored entries (len(mu), len(alpha), 4), rows from the largest mu to the smallest.
+
+    Per row: Nelder-Mead in the parameters (beta, ln m11, ln m22, q) on the coarse rule from the
+    best of the warm and the cold start, then in the stored entries on the fine rule (a second
+    coordinate system, so a valley that stalls one does not stall the other), then the
+    neighbour pass. ``progress(n)`` receives the texels finished.
+    """
+    mu = np.asarray(mu, dtype=np.float64)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    out = np.zeros((mu.size, alpha.size, 4))
+    prev = None
+    for i in np.argsort(-mu, kind="stable"):
+        row_mu = np.full(alpha.size, mu[i])
+        obj = Objective(dist, shadowing, row_mu, alpha, backend=backend, device=device)
+        x0, f0 = _cold_start(obj, alpha)
+        if prev is not None:
+            fw = obj.params(np.arange(alpha.size), prev)
+            warm = fw < f0
+            x0[warm], f0[warm] = prev[warm], fw[warm]
+        x, _ = nelder_mead(obj.params, x0, _steps(x0))
+        fine = Objective(dist, shadowing, row_mu, alpha, FIT_RULE_FINE, backend=backend, device=device)
+        e = entries_from_params(x)
+        e, fe = nelder_mead(fine, e, _entry_steps(e, 0.05), rtol=1e-5, atol=1e-7)
+        e = _neighbour_pass(fine, e, fe)
+        out[i] = e
+        prev = params_from_entries(e)
+        if progress is not None:
+            progress(alpha.size)
+    return out
+
+
+def fit_metric(dist: str, shadowing: str, mu, alpha, minv, E=None):
+    """The L1 fit metric of LTC matrices ``minv`` (B, 3, 3) at texels (mu, alpha) (B,).
+
+    Computed on :data:`METRIC_RULES` (composite Gauss-Legendre in the lobe's micro-normal
+    coordinates, fine and coarse); the lobe is normalized by ``E`` (the exact albedo, if given)
+    or by the fine rule's mass. Returns (metric, error): the error is |fine - coarse| plus the
+    fine rule's relative mass defect (when E is given), plus 2 where alpha < ALPHA_FLOOR.
+    """
+    mu = np.atleast_1d(np.asarray(mu, dtype=np.float64))
+    alpha = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
+    vals = []
+    masses = []
+    for rule in METRIC_RULES:
+        L, f, w = lobe_nodes(dist, shadowing, mu, alpha, *rule)
+        mass = w.sum(axis=1)
+        norm = mass if E is None else np.asarray(E, dtype=np.float64)
+        vals.append(l1_metric(density(minv, L), f, w, norm))
+        masses.append(mass)
+    value = vals[0]
+    err = np.abs(vals[0] - vals[1])
+    if E is not None:
+        # E > 0 for alpha > 0; the defect of the rule's mass shifts the metric by at most twice it
+        err = err + 2.0 * np.abs(masses[0] - E) / np.maximum(np.asarray(E, dtype=np.float64), 1e-300)
+    err = np.where(alpha < ALPHA_FLOOR, 2.0, err)
+    return np.clip(value, 0.0, 2.0), err
+
+
+def fit_table(dist: str, shadowing: str, mu, alpha, progress: Callable[[int], None] | None = None,
+              workers: int = 1, device=None) -> np.ndarray:
+    """Minv (len(mu), len(alpha), 3, 3) of the fit (Minv_11 = 1): :func:`fit_rows` on threads.
+
+    The alpha axis is cut into fixed blocks of :data:`BLOCK` columns, fitted independently and
+    spread over ``workers`` threads, so the result does not depend on ``workers``;
+    ``progress(n)`` is called with texel increments (serialized by a lock).
+    """
+    mu = np.asarray(mu, dtype=np.float64)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    chunks = [np.arange(s, min(s + BLOCK, alpha.size)) for s in range(0, alpha.size, BLOCK)]
+    lock = threading.Lock()
+
+    def report(n: int) -> None:
+        if progress is not None:
+            with lock:
+                progress(n)
+
+    def one(cols):
+        return cols, fit_rows(dist, shadowing, mu, alpha[cols], report, device=device)
+
+    params = np.zeros((mu.size, alpha.size, 4))
+    # one evaluation here loads the kernel module before the threads race for it
+    Objective(dist, shadowing, mu[:1], alpha[:1], device=device)(np.zeros(1, dtype=np.int32), np.eye(1, 4))
+    if len(chunks) == 1 or workers <= 1:
+        results = [one(c) for c in chunks]
+    else:
+        with ThreadPoolExecutor(max_workers=min(workers, len(chunks))) as pool:
+            results = list(pool.map(one, chunks))
+    for cols, p in results:
+        params[:, cols] = p
+    return from_storage(*np.moveaxis(params, -1, 0))

@@ -1,0 +1,114 @@
+"""``ltc``: Linearly Transformed Cosine fits of the BRDF lobe on (mu, alpha), with the fit error.
+
+Heitz, Dupuy, Hill, Neubelt 2016, "Real-Time Polygonal-Light Shading with Linearly Transformed
+Cosines". Per texel (V = (sqrt(1 - mu^2), 0, mu), F = 1), the matrix M whose transformed
+clamped cosine D_ltc(L) = max(0, (Minv L)_z) |det Minv| / (pi |Minv L|^4) best matches the
+normalized lobe f_r(V, L) cos(theta_L) / E in the L1 sense (:mod:`bsdf_tab.ltc.fit`).
+
+Channels (each with ``<X>_err``):
+
+- ``Minv_00``, ``Minv_20``, ``Minv_02``, ``Minv_22``: Minv / Minv_11 (row, column), the
+  storage form of the public code's ``ltc_1`` and three.js (RGBA = these four, in this order;
+  GLSL ``mat3(vec3(x, 0, y), vec3(0, 1, 0), vec3(z, 0, w))``). Their errors are 0: the entries
+  define the fitted lobe exactly; how well it fits is ``fit_l1``.
+- ``M_00``, ``M_20``, ``M_02``, ``M_22``: the matrix M = (Minv / Minv_11)^-1 (M_11 = 1).
+- ``E``: the albedo int f_r cos dL (F = 1), exact, from the table integrators (the ``dfg``
+  grid through :func:`~bsdf_tab.tables._common.run_grid`, E = A + B); the LTC magnitude.
+- ``fresnel``: int (f_r / F) (1 - V.h)^5 cos dL, the Schlick split's second amplitude
+  (``ltc_2.y``): with Schlick F0 the reflected radiance is (F0 E + (1 - F0) fresnel) x the
+  polygon integral.
+- ``sphere``: the horizon-clipped sphere form factor ``ltc_2.w`` of the two-texture layout, at
+  this texel's texture coordinates (u, v) = (roughness, sqrt(1 - mu)) (roughness = sqrt(alpha)
+  on an alpha axis): S(2u - 1, v), :mod:`bsdf_tab.ltc.sphere`; its error is a rounding bound.
+- ``fit_l1``: int |D_ltc - f_r cos / E| dL over the sphere, in [0, 2] (mass of D_ltc below the
+  horizon counts), by composite Gauss-Legendre quadrature in the lobe's micro-normal
+  coordinates; its error is the difference of two rules plus the rule's mass defect against E,
+  and 2 below alpha = 1e-6 (the lobe there is the alpha = 1e-6 fit: a Dirac lobe has no density).
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from ..axes import alpha_values
+from ..ltc import fit_metric, fit_table, sphere_term_at, storage
+from ._common import Context, run_grid
+
+MATRIX_CHANNELS = ("Minv_00", "Minv_20", "Minv_02", "Minv_22", "M_00", "M_20", "M_02", "M_22")
+CHANNELS = MATRIX_CHANNELS + ("E", "fresnel", "sphere", "fit_l1")
+_ROUNDING = 8.0 * np.finfo(np.float64).eps
+
+
+def _workers(ctx: Context) -> int:
+    if ctx.workers is not None:
+        return ctx.workers
+    from ..integrate.runtime import default_workers
+
+    return default_workers()
+
+
+def _metric(nspec: dict, mu: np.ndarray, alpha: np.ndarray, minv: np.ndarray, E: np.ndarray, workers: int):
+    """fit_metric over the grid, in chunks of rows on ``workers`` threads."""
+    MU, AL = np.meshgrid(mu, alpha, indexing="ij")
+    flat = (MU.ravel(), AL.ravel(), minv.reshape(-1, 3, 3), E.ravel())
+    pieces = np.array_split(np.arange(MU.size), max(1, min(4 * workers, MU.size)))
+
+    def one(p):
+        return fit_metric(nspec["distribution"], nspec["shadowing"], flat[0][p], flat[1][p], flat[2][p], flat[3][p])
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        parts = list(pool.map(one, pieces))
+    value = np.concatenate([v for v, _ in parts]).reshape(MU.shape)
+    error = np.concatenate([e for _, e in parts]).reshape(MU.shape)
+    return value, error
+
+
+def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
+    values, errors = run_grid("dfg", nspec, axes, ctx)
+    E = values[..., 0] + values[..., 1]
+    E_err = errors[..., 0] + errors[..., 1]
+    mu = np.asarray(axes["mu"], dtype=np.float64)
+    alpha = alpha_values(axes)
+    rough = np.asarray(axes["roughness"], dtype=np.float64) if "roughness" in axes else np.sqrt(alpha)
+    n = mu.size * alpha.size
+    ctx.expect(2 * n)  # the fit, then the metric
+    report = ctx.reporter()
+    done = 0
+
+    def progress(k: int) -> None:
+        nonlocal done
+        done += k
+        report(done, 2 * n)
+
+    workers = _workers(ctx)
+    minv = fit_table(nspec["distribution"], nspec["shadowing"], mu, alpha, progress, workers=workers,
+                     device=ctx.device)
+    fit_l1, fit_l1_err = _metric(nspec, mu, alpha, minv, E, workers)
+    progress(n)
+    inv_entries, m_entries = storage(minv)
+    out = {name: inv_entries[..., k] for k, name in enumerate(MATRIX_CHANNELS[:4])}
+    out.update({name: m_entries[..., k] for k, name in enumerate(MATRIX_CHANNELS[4:])})
+    sphere = sphere_term_at(mu[:, None], rough[None, :])
+    out.update({"E": E, "fresnel": values[..., 1], "sphere": sphere, "fit_l1": fit_l1})
+    for name in MATRIX_CHANNELS:
+        out[f"{name}_err"] = np.zeros_like(E)
+    out.update({"E_err": E_err, "fresnel_err": errors[..., 1], "sphere_err": _ROUNDING * np.maximum(1.0, sphere),
+                "fit_l1_err": fit_l1_err})
+    return out
+
+
+KINDS = {
+    "ltc": {
+        "axes": ("mu", "alpha"),
+        "channels": CHANNELS,
+        "fresnel": "one",
+        "description": "Linearly Transformed Cosine fit (Heitz et al. 2016) of the BRDF lobe f_r cos / E: "
+        "Minv / Minv_11 entries (Minv_00, Minv_20, Minv_02, Minv_22: the ltc_1 RGBA of the public code and "
+        "three.js), M = its inverse, the exact albedo E, the Schlick split amplitude fresnel (ltc_2.y), the "
+        "clipped-sphere term sphere (ltc_2.w at u = roughness, v = sqrt(1 - mu)) and the L1 fit error fit_l1 "
+        "= int |D_ltc - f_r cos / E| in [0, 2]",
+        "compute": compute,
+    },
+}
