@@ -12,16 +12,29 @@ File format and where corruption is decided
 -------------------------------------------
 Every entry file is one header line and the payload::
 
-    BSDFTAB-CACHE 1 <sha256 hex of payload> <payload length>\\n<payload>
+    BSDFTAB-CACHE 2 <sha256 hex of payload> <payload length> <entry name>\n<payload>
 
-:meth:`DiskCache.get` reads the file and checks the magic, the length and the SHA-256; any
-mismatch (truncated, bit-flipped, half-written, foreign file) counts as a miss, the file is
-deleted and the caller recomputes. A corrupt file is never served.
+The entry name (``<key>.<variant>``: spec hash, variant, package version) is inside the
+header, so a file copied or renamed onto another entry's name is not that entry.
+:meth:`DiskCache.get` reads the file and checks the magic, the name, the length and the
+SHA-256, then the caller's ``validate(payload)`` (the service checks that the payload *is*
+what the variant says: an npz master holds a table of that very spec hash, an EXR parses, a
+JSON document loads, a PNG has its signature). Any mismatch (truncated, bit-flipped,
+half-written, foreign, renamed or mislabelled file) counts as a miss (``corrupt`` or
+``invalid``), the file is deleted and the caller recomputes. Such a file is never served.
 
 Writes are atomic (:mod:`bsdf_tab.io.atomic`, the library's one atomic write): the entry is
 written to a unique temporary file in the same folder, flushed and fsync'ed, then
 ``os.replace``-d onto its name; readers see the old file or the new one, never a partial one.
 Left-over temporaries (a crash mid-write) are removed at start-up.
+
+Replicas
+--------
+Several processes may share one folder (``bsdf-tab serve`` replicas, uvicorn workers).
+:meth:`DiskCache.key_lock` is an inter-process lock per key (``fcntl.flock`` on
+``locks/<name>.lock``): the one process that holds it computes, the others poll the cache
+until the entry appears. The folder must be a local disk, or NFS with working locks
+(``flock`` over NFSv4 / lockd); atomic ``rename`` within the folder is required.
 
 Size cap
 --------
@@ -51,10 +64,10 @@ from typing import Awaitable, Callable, TypeVar
 
 from bsdf_tab.io.atomic import TMP_SUFFIX, write_bytes
 
-__all__ = ["DiskCache", "SingleFlight", "table_key", "MAGIC"]
+__all__ = ["DiskCache", "KeyLock", "MemoryLRU", "SingleFlight", "table_key", "MAGIC"]
 
-MAGIC = b"BSDFTAB-CACHE 1 "
-_HEADER_MAX = len(MAGIC) + 64 + 1 + 20 + 1
+MAGIC = b"BSDFTAB-CACHE 2 "
+_HEADER_MAX = len(MAGIC) + 64 + 1 + 20 + 1 + 202 + 1
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,200}$")
 _TMP_SUFFIX = TMP_SUFFIX  # what a write that never finished leaves: ".<name>.<pid>.<hex>.tmp"
 
@@ -67,20 +80,22 @@ def table_key(spec_hash: str, version: str) -> str:
     return f"v{safe_version}-{spec_hash}"
 
 
-def _encode(payload: bytes) -> bytes:
+def _encode(payload: bytes, name: str) -> bytes:
     digest = hashlib.sha256(payload).hexdigest().encode()
-    return MAGIC + digest + b" " + str(len(payload)).encode() + b"\n" + payload
+    return MAGIC + digest + b" " + str(len(payload)).encode() + b" " + name.encode() + b"\n" + payload
 
 
-def _decode(data: bytes) -> bytes | None:
-    """The payload of an entry file, or None when the file is not intact."""
+def _decode(data: bytes, name: str) -> bytes | None:
+    """The payload of entry file ``name``, or None when the file is not intact or not that entry."""
     if not data.startswith(MAGIC):
         return None
     end = data.find(b"\n", 0, _HEADER_MAX)
     if end < 0:
         return None
     fields = data[len(MAGIC) : end].split(b" ")
-    if len(fields) != 2 or len(fields[0]) != 64 or not fields[1].isdigit():
+    if len(fields) != 3 or len(fields[0]) != 64 or not fields[1].isdigit():
+        return None
+    if fields[2] != name.encode():  # another entry's file under this name: not this entry
         return None
     payload = data[end + 1 :]
     if len(payload) != int(fields[1]):
@@ -109,7 +124,7 @@ class DiskCache:
         self._lock = threading.Lock()
         self._index: OrderedDict[str, int] | None = None  # name -> size, least recently used first
         self._total = 0
-        self.stats = {"hits": 0, "misses": 0, "corrupt": 0, "writes": 0, "evictions": 0}
+        self.stats = {"hits": 0, "misses": 0, "corrupt": 0, "invalid": 0, "writes": 0, "evictions": 0}
 
     # ------------------------------------------------------------------ index
 
@@ -143,8 +158,12 @@ class DiskCache:
 
     # ------------------------------------------------------------------ public
 
-    def get(self, name: str) -> bytes | None:
-        """The payload of entry ``name``, or None if absent or not intact (then it is deleted)."""
+    def get(self, name: str, validate: Callable[[bytes], bool] | None = None) -> bytes | None:
+        """The payload of entry ``name``, or None if absent, not intact or not valid (then it is deleted).
+
+        ``validate(payload) -> bool`` checks that an intact payload is what the entry claims to
+        be; False (or an exception) deletes the file and counts it as ``invalid``.
+        """
         index = self._ensure_index()
         path = self._path(name)
         try:
@@ -154,12 +173,19 @@ class DiskCache:
                 self._forget(name)
                 self.stats["misses"] += 1
             return None
-        payload = _decode(data)
-        if payload is None:
+        payload = _decode(data, name)
+        problem = "corrupt" if payload is None else None
+        if problem is None and validate is not None:
+            try:
+                ok = validate(payload)
+            except Exception:  # a payload that does not even parse is not a valid entry
+                ok = False
+            problem = None if ok else "invalid"
+        if problem is not None:
             _unlink(path)
             with self._lock:
                 self._forget(name)
-                self.stats["corrupt"] += 1
+                self.stats[problem] += 1
                 self.stats["misses"] += 1
             return None
         with self._lock:
@@ -177,7 +203,7 @@ class DiskCache:
     def put(self, name: str, payload: bytes) -> None:
         """Store ``payload`` as entry ``name`` atomically, then evict down to the size cap."""
         index = self._ensure_index()
-        data = _encode(payload)
+        data = _encode(payload, name)
         if self.max_bytes <= 0 or len(data) > self.max_bytes:
             return
         write_bytes(self._path(name), data)  # temp file in the folder, fsync, os.replace
@@ -194,6 +220,11 @@ class DiskCache:
             self.stats["evictions"] += len(victims)
         for victim in victims:
             _unlink(self.folder / victim)
+
+    def key_lock(self, name: str) -> "KeyLock":
+        """The inter-process lock of entry ``name`` (not yet acquired)."""
+        self._path(name)  # the same name rules as entries
+        return KeyLock(self.folder / "locks" / f"{name}.lock")
 
     def delete(self, name: str) -> None:
         """Remove entry ``name`` if present."""
@@ -259,6 +290,93 @@ def _unlink(path) -> None:
         pass
     except OSError:
         pass
+
+
+class KeyLock:
+    """An exclusive inter-process lock on one file (``fcntl.flock``), taken without blocking.
+
+    :meth:`try_acquire` returns True when this process now holds it; :meth:`release` frees it.
+    A crashed holder's lock is freed by the kernel with its file descriptors.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._fd: int | None = None
+
+    def try_acquire(self) -> bool:
+        import fcntl
+
+        if self._fd is not None:
+            return True
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:  # another process computes this key
+            os.close(fd)
+            return False
+        except OSError:  # a folder without locks (some network mounts): say so, do not guess
+            os.close(fd)
+            raise
+        self._fd = fd
+        return True
+
+    def release(self) -> None:
+        import fcntl
+
+        if self._fd is None:
+            return
+        fd, self._fd = self._fd, None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+        finally:
+            os.close(fd)
+
+
+class MemoryLRU:
+    """Recently served, verified entries in memory, bounded in bytes (entries are immutable).
+
+    Thread-safe; a lookup is a dict access under a lock, so the event loop serves memory hits
+    without a thread hop.
+    """
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = int(max_bytes)
+        self._items: OrderedDict[str, bytes] = OrderedDict()
+        self._total = 0
+        self._lock = threading.Lock()
+        self.hits = 0
+
+    def get(self, name: str) -> bytes | None:
+        with self._lock:
+            data = self._items.get(name)
+            if data is not None:
+                self._items.move_to_end(name)
+                self.hits += 1
+            return data
+
+    def put(self, name: str, data: bytes) -> None:
+        if len(data) > self.max_bytes // 4:  # one huge table must not flush everything else
+            return
+        with self._lock:
+            old = self._items.pop(name, None)
+            if old is not None:
+                self._total -= len(old)
+            self._items[name] = data
+            self._total += len(data)
+            while self._total > self.max_bytes and self._items:
+                _, victim = self._items.popitem(last=False)
+                self._total -= len(victim)
+
+    def discard(self, name: str) -> None:
+        with self._lock:
+            old = self._items.pop(name, None)
+            if old is not None:
+                self._total -= len(old)
+
+    def summary(self) -> dict:
+        with self._lock:
+            return {"entries": len(self._items), "bytes": self._total, "max_bytes": self.max_bytes, "hits": self.hits}
 
 
 class SingleFlight:

@@ -1,18 +1,27 @@
-"""From a spec to response bytes: validate, look up the cache, compute once, derive formats.
+"""From a spec to response bytes: validate, price, look up the caches, compute once, derive formats.
 
 :class:`TableStore` is the one object the routes talk to. A request goes
 
-1. :meth:`TableStore.prepare`: normalize the spec (``SpecError`` -> 400), check the texel limit
-   (-> 413), compute the cache key. Cheap; runs on the event loop.
+1. :meth:`TableStore.prepare` (or :meth:`TableStore.prepare_query`, memoized query -> key):
+   normalize the spec once (``SpecError`` -> 400), check the texel limit (-> 413) and the
+   predicted cost (:mod:`bsdf_tab.cost`, ``max_cost_seconds``; jobs ``max_job_cost_seconds``;
+   -> 413 naming the parameters and the prediction), compute the cache key. Cheap; on the loop.
 2. :meth:`TableStore.variant`: the bytes of one representation (``exr``, ``npz``, ``npy``,
-   ``json``, ``info``, ``png-...``). A cache hit is read (and checksum-verified) in a small I/O
-   thread pool. A miss goes through :class:`~service.cache.SingleFlight` keyed by the entry
-   name, so concurrent requests share one derivation, which itself needs the ``npz`` master,
-   again single-flight, and only a master miss calls :func:`tabulate`.
-3. Computations run in a :class:`~concurrent.futures.ThreadPoolExecutor` of
-   ``settings.max_concurrent`` threads (each ``tabulate`` call uses ``settings.workers``
-   threads of its own), never on the event loop; at most ``settings.max_queued`` distinct
-   tables wait for a slot (more -> 503 with ``Retry-After``).
+   ``json``, ``info``, ``png-...``). Recently served entries are in a bounded in-memory LRU
+   (:class:`~service.cache.MemoryLRU`, no thread hop); a disk hit is read, checksum-verified
+   and validated in a small I/O pool. A miss goes through :class:`~service.cache.SingleFlight`
+   keyed by the entry name, so concurrent requests share one derivation, which itself needs the
+   ``npz`` master, again single-flight, and only a master miss computes.
+3. A master computation takes the key's inter-process lock (:meth:`DiskCache.key_lock`:
+   replicas sharing the folder compute each key once; the others poll the cache), then runs in
+   a pool of ``settings.max_concurrent`` threads (each ``tabulate`` call uses
+   ``settings.workers`` threads of its own), never on the event loop; at most
+   ``settings.max_queued`` distinct computations wait (more -> 503 with ``Retry-After``).
+   Scenes (:meth:`TableStore.run_scene`) go through the same queue, slots and counters.
+4. Every computation is a :class:`Computation`: its progress callback (called by the library
+   between chunks) raises :class:`Cancelled` once every waiting client has gone (clients are
+   polled for disconnects while they wait; a job is a waiter until it is deleted) or once its
+   wall-clock limit (``max_compute_seconds``, jobs ``job_max_seconds``) has passed.
 
 ``tabulate`` is looked up on this module at call time, so tests can monkeypatch
 ``service.compute.tabulate`` to count computations.
@@ -21,47 +30,103 @@
 from __future__ import annotations
 
 import asyncio
+import io
 import json
 import logging
+import math
+import os
+import re
 import threading
 import time
+from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Awaitable, Callable
 
 import numpy as np
 
 from bsdf_tab import __version__
 from bsdf_tab.api import tabulate  # noqa: F401  (monkeypatch point)
+from bsdf_tab.cost import Cost, CostLimitError, estimate
 from bsdf_tab.errors import SpecError
-from bsdf_tab.spec import normalize_spec, resolve_axes, spec_hash, texel_count
+from bsdf_tab.spec import normalize_spec, resolve_axes, spec_hash
 import bsdf_tab.io as bsdf_io
 from bsdf_tab.io import json_default
 from bsdf_tab.io.json import finite_json
 from bsdf_tab.table import Table
 
-from .cache import DiskCache, SingleFlight, table_key
-from .errors import ServiceError
+from .cache import DiskCache, MemoryLRU, SingleFlight, table_key
+from .errors import ClientGone, ServiceError, cost_error
 from .settings import Settings
 
-__all__ = ["TableStore", "Prepared"]
+__all__ = ["Cancelled", "Computation", "TableStore", "Prepared", "validator"]
 
 log = logging.getLogger("bsdf_tab.service")
 
 MASTER = "npz"
+#: seconds between two checks that a waiting client is still connected
+POLL_SECONDS = 0.25
+#: seconds between two looks at the cache while another process holds a key's lock
+PEER_POLL_SECONDS = 0.1
+_KEY_RE = re.compile(r"^v[A-Za-z0-9.+_]{1,40}-[0-9a-f]{64}$")
+_SCENE_RE = re.compile(r"^v[A-Za-z0-9.+_]{1,40}-[0-9a-f]{64}\.scene$")
+#: prepared queries remembered (query -> key); entries are small
+MEMO_ENTRIES = 4096
+
+
+class Cancelled(Exception):
+    """A computation stopped between chunks: every client left, it was deleted, or it ran out of time."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
 
 
 @dataclass(frozen=True)
 class Prepared:
-    """A validated request: normalized spec, its resolved axes and cache key."""
+    """A validated request: normalized spec, its resolved axes, cache key and predicted cost."""
 
     nspec: dict
     key: str
     texels: int
     axes: dict
+    cost: Cost | None = None
 
     @property
     def kind(self) -> str:
         return self.nspec["table"]
+
+
+@dataclass
+class Computation:
+    """One running computation (a table master or a scene): progress, waiters, cancellation."""
+
+    name: str
+    limit_seconds: float
+    started: float = field(default_factory=time.monotonic)
+    done: int = 0
+    total: int = 0
+    waiters: int = 0
+    cancel_reason: str | None = None
+
+    def cancel(self, reason: str) -> None:
+        if self.cancel_reason is None:
+            self.cancel_reason = reason
+
+    def progress(self, done: int, total: int) -> None:
+        """The library's progress callback: records, notifies, and stops the computation if asked."""
+        self.done, self.total = int(done), int(total)
+        if self.cancel_reason is not None:
+            raise Cancelled(self.cancel_reason)
+        if time.monotonic() - self.started > self.limit_seconds:
+            self.cancel(f"over its wall-clock limit of {self.limit_seconds:g} s")
+            raise Cancelled(self.cancel_reason)
+
+    def status(self) -> dict:
+        elapsed = time.monotonic() - self.started
+        return {"name": self.name, "done": self.done, "total": self.total, "waiters": self.waiters,
+                "elapsed_s": round(elapsed, 3), "limit_s": self.limit_seconds,
+                "cancelling": self.cancel_reason}
 
 
 def _normalize(spec) -> dict:
@@ -74,117 +139,351 @@ def _normalize(spec) -> dict:
         raise ServiceError(400, "invalid_parameter", f"invalid spec: {type(exc).__name__}: {exc}") from None
 
 
+def validator(variant: str, key: str) -> Callable[[bytes], bool] | None:
+    """What an intact payload of ``variant`` must be to be served (None: no check beyond the checksum)."""
+    if variant == MASTER:
+        expected = key.rsplit("-", 1)[-1]
+
+        def master_ok(payload: bytes) -> bool:
+            table = Table.from_npz_bytes(payload)  # a table at all, and the one of this key
+            return spec_hash(table.meta["spec"]) == expected
+
+        return master_ok
+    if variant == "exr":
+        return lambda payload: payload[:4] == b"\x76\x2f\x31\x01" and bsdf_io.from_bytes(payload, "exr") is not None
+    if variant in ("json", "info", "scene"):
+        return lambda payload: isinstance(json.loads(payload), dict)
+    if variant == "npy":
+        return lambda payload: np.load(io.BytesIO(payload), allow_pickle=False).dtype.names is not None
+    if variant.startswith("png"):
+        return lambda payload: payload[:8] == b"\x89PNG\r\n\x1a\n"
+    return None
+
+
 class TableStore:
-    """Cache + single flight + bounded executors around :func:`bsdf_tab.tabulate`."""
+    """Caches + single flight + bounded executors + cost limits around :func:`bsdf_tab.tabulate`."""
 
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
         self.cache = DiskCache(settings.cache_dir, settings.cache_max_bytes)
+        self.memory = MemoryLRU(settings.memory_cache_bytes)
         self.flight = SingleFlight()
         self.compute_pool = ThreadPoolExecutor(settings.max_concurrent, thread_name_prefix="bsdf-tab-compute")
         self.io_pool = ThreadPoolExecutor(4, thread_name_prefix="bsdf-tab-io")
-        self.computations = 0  # tabulate calls that finished (or failed)
-        self.computing = 0  # tabulate calls running now
-        self.waiting = 0  # masters waiting for a compute slot or running
+        self.computations = 0  # computations that finished (or failed), tables and scenes
+        self.computing = 0  # computations running now
+        self.waiting = 0  # computations waiting for a compute slot, a peer's lock, or running
         self.compute_seconds = 0.0
+        self.counters = {"cancelled": 0, "timed_out": 0, "failed": 0, "peer_computed": 0, "scenes": 0,
+                         "rejected_cost": 0, "busy": 0, "client_gone": 0}
+        self.running: dict[str, Computation] = {}
+        self._waiters: dict[str, int] = {}
+        self._memo: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
         self.started = time.time()
 
     # ------------------------------------------------------------------ requests
 
-    def prepare(self, spec) -> Prepared:
-        """Validate ``spec`` (400 naming the parameter), apply the texel limit (413), key it."""
+    def prepare(self, spec, *, max_cost: float | None = None) -> Prepared:
+        """Validate ``spec`` (400), apply the texel limit and the cost limit (413), key it."""
         nspec = _normalize(spec)
-        texels = texel_count(nspec)
+        axes = resolve_axes(nspec)
+        texels = int(np.prod([len(a) for a in axes.values()])) if axes else 1
         if texels > self.settings.max_texels:
-            sizes = " x ".join(
-                str(len(a["values"]) if "values" in a else a["size"]) for a in nspec["axes"].values()
-            )
+            sizes = " x ".join(str(len(a)) for a in axes.values())
             raise ServiceError(
                 413, "too_many_texels",
                 f"the table has {texels} texels ({sizes}); this service computes at most {self.settings.max_texels}",
                 param="axes", allowed={"max_texels": self.settings.max_texels},
             )
-        try:
-            axes = resolve_axes(nspec)
-        except SpecError:
-            raise
-        return Prepared(nspec=nspec, key=table_key(spec_hash(nspec), __version__), texels=texels, axes=axes)
+        limit = self.settings.max_cost_seconds if max_cost is None else max_cost
+        cost = estimate(nspec, scale=self.settings.cost_scale)
+        if cost.seconds > limit:
+            self.counters["rejected_cost"] += 1
+            way = "POST /jobs for big work" if limit < self.settings.max_job_cost_seconds else "fewer texels"
+            msg = (f"predicted cost {cost.seconds:.3g} core-seconds ({cost.texels} texels, method {cost.method}, "
+                   f"{cost.per_integration:.2g} s per integration) is above this service's limit of {limit:g}; "
+                   + ("use a coarser tolerance" if cost.method == "adaptive" else "use a lower effort")
+                   + f", fewer texels, or {way}")
+            raise cost_error(CostLimitError(",".join(cost.params), msg, cost, limit), axes)
+        return Prepared(nspec=nspec, key=table_key(spec_hash(nspec), __version__), texels=texels, axes=axes,
+                        cost=cost)
 
-    async def variant(self, prep: Prepared, variant: str, derive=None) -> bytes:
-        """Bytes of representation ``variant`` of the table (from cache, else made once).
+    def prepare_query(self, table: str, items: tuple, parse: Callable[[], tuple[dict, dict]],
+                      check: Callable[[dict], object] | None = None) -> tuple[Prepared, dict]:
+        """(:meth:`prepare` of the spec, the extra parameters) that ``parse()`` builds from query
+        ``items``, memoized: a repeated query is normalized, priced and hashed once.
+
+        ``check(extra)`` runs before the spec is prepared (the format's 406 comes before a 413).
+        Only successes are remembered (an error is raised again by the next ``parse()``).
+        """
+        memo_key = (table, items)
+        hit = self._memo.get(memo_key)
+        if hit is not None:
+            self._memo.move_to_end(memo_key)
+            return hit
+        spec, extra = parse()
+        if check is not None:
+            check(extra)
+        hit = (self.prepare(spec), extra)
+        self._memo[memo_key] = hit
+        if len(self._memo) > MEMO_ENTRIES:
+            self._memo.popitem(last=False)
+        return hit
+
+    async def prepare_key(self, key: str) -> Prepared:
+        """The :class:`Prepared` of a table already in the cache, by its key (404 otherwise)."""
+        if not _KEY_RE.match(key):
+            raise ServiceError(404, "unknown_key", f"not a table key: {key[:80]!r}", param="key")
+        name = f"{key}.{MASTER}"
+        payload = self.memory.get(name) or await self._cache_get(name, validator(MASTER, key))
+        if payload is None:
+            raise ServiceError(404, "unknown_key", "no table of this key is in the cache (not computed, or "
+                               "evicted): POST /jobs again", param="key")
+        spec = Table.from_npz_bytes(payload).meta["spec"]
+        prep = self.prepare(spec, max_cost=math.inf)  # computed already: no cost limit
+        if prep.key != key:  # an entry of another release
+            raise ServiceError(404, "unknown_key", "this key belongs to another version of the service", param="key")
+        return prep
+
+    async def cached_scene(self, name: str) -> bytes:
+        """A planned scene's answer by its entry name (404 when not in the cache)."""
+        if not _SCENE_RE.match(name):
+            raise ServiceError(404, "unknown_key", f"not a scene key: {name[:80]!r}", param="name")
+        payload = self.memory.get(name) or await self._cache_get(name, validator("scene", name))
+        if payload is None:
+            raise ServiceError(404, "unknown_key", "no scene of this key is in the cache: POST /jobs again",
+                               param="name")
+        return payload
+
+    def cached(self, prep: Prepared, variant: str) -> bytes | None:
+        """The bytes of a recently served entry, from memory (no I/O, no thread hop), else None."""
+        return self.memory.get(f"{prep.key}.{variant}")
+
+    async def variant(self, prep: Prepared, variant: str, derive=None, client=None) -> bytes:
+        """Bytes of representation ``variant`` of the table (from a cache, else made once).
 
         ``derive(table) -> bytes`` makes it from the master table; the built-in formats need none.
+        ``client()`` (an awaitable callable, e.g. ``request.is_disconnected``) says whether the
+        requesting client has gone; when every waiter has gone the computation is cancelled.
         """
-        if variant == MASTER:
-            return await self.master(prep)
         name = f"{prep.key}.{variant}"
-        payload = await self._cache_get(name)
+        payload = self.memory.get(name)
+        if payload is not None:
+            return payload
+        if variant == MASTER:
+            return await self.master(prep, client)
+        payload = await self._cache_get(name, validator(variant, prep.key))
         if payload is not None:
             return payload
         make = derive or _DERIVE[variant]
 
         async def produce() -> bytes:
-            master = await self.master(prep)
+            master = await self._master_flight(prep, self.settings.max_compute_seconds)
             loop = asyncio.get_running_loop()
             return await loop.run_in_executor(self.io_pool, self._derive_and_store, name, master, make)
 
-        return await self.flight.run(name, produce)
+        return await self.watch(prep.key, self.flight.run(name, produce), client)
 
-    async def master(self, prep: Prepared) -> bytes:
-        """The ``npz`` master of the table: cached, or computed exactly once per key at a time."""
+    async def master(self, prep: Prepared, client=None, *, limit_seconds: float | None = None) -> bytes:
+        """The ``npz`` master of the table: cached, or computed exactly once per key at a time.
+
+        The caller is one waiter of the computation (see :meth:`watch`); ``limit_seconds`` is the
+        wall-clock limit of a computation this call starts (default ``max_compute_seconds``).
+        """
         name = f"{prep.key}.{MASTER}"
-        payload = await self._cache_get(name)
+        payload = self.memory.get(name)
         if payload is not None:
             return payload
-        return await self.flight.run(name, lambda: self._compute(prep, name))
+        limit = self.settings.max_compute_seconds if limit_seconds is None else limit_seconds
+        return await self.watch(prep.key, self._master_flight(prep, limit), client)
+
+    async def _master_flight(self, prep: Prepared, limit_seconds: float) -> bytes:
+        name = f"{prep.key}.{MASTER}"
+        payload = self.memory.get(name)
+        if payload is None:
+            payload = await self._cache_get(name, validator(MASTER, prep.key))
+        if payload is not None:
+            return payload
+        return await self.flight.run(name, lambda: self._compute(prep, name, limit_seconds))
 
     async def table(self, prep: Prepared) -> Table:
         master = await self.master(prep)
         return Table.from_npz_bytes(master)
 
+    async def watch(self, key: str, awaitable: Awaitable, client=None):
+        """Await ``awaitable`` as one waiter of computation ``key``; the last waiter to leave cancels it."""
+        with self._lock:
+            self._waiters_add(key, 1)
+        task = asyncio.ensure_future(awaitable)
+        try:
+            while True:
+                done, _ = await asyncio.wait({task}, timeout=POLL_SECONDS)
+                if done:
+                    return task.result()
+                if client is not None and await client():
+                    self.counters["client_gone"] += 1
+                    task.cancel()  # our shield on the shared task; the computation is the last waiter's call
+                    raise ClientGone("the client disconnected while its table was computed")
+        except asyncio.CancelledError:
+            task.cancel()
+            raise
+        finally:
+            with self._lock:
+                left = self._waiters_add(key, -1)
+            comp = self.running.get(key)
+            if left <= 0 and comp is not None:
+                comp.cancel("every client waiting for it has gone")
+
+    def _waiters_add(self, key: str, n: int) -> int:  # with self._lock
+        counts = self._waiters
+        counts[key] = counts.get(key, 0) + n
+        left = counts[key]
+        if left <= 0:
+            del counts[key]
+        comp = self.running.get(key)
+        if comp is not None:
+            comp.waiters = max(0, left)
+        return left
+
+    def progress_of(self, key: str) -> dict | None:
+        comp = self.running.get(key)
+        return None if comp is None else comp.status()
+
     # ------------------------------------------------------------------ internals
 
-    async def _cache_get(self, name: str) -> bytes | None:
+    async def _cache_get(self, name: str, validate=None) -> bytes | None:
         loop = asyncio.get_running_loop()
-        return await loop.run_in_executor(self.io_pool, self.cache.get, name)
-
-    async def _compute(self, prep: Prepared, name: str) -> bytes:
-        loop = asyncio.get_running_loop()
-        # a request that finished while we were scheduled may have stored it
-        payload = await loop.run_in_executor(self.io_pool, self.cache.get, name)
+        payload = await loop.run_in_executor(self.io_pool, self.cache.get, name, validate)
         if payload is not None:
-            return payload
+            self.memory.put(name, payload)
+        return payload
+
+    def _admit(self) -> None:
+        """A slot in the queue, or 503 (the same door for tables and scenes)."""
         limit = self.settings.max_concurrent + self.settings.max_queued
         if self.waiting >= limit:
+            self.counters["busy"] += 1
             raise ServiceError(
-                503, "busy", f"{self.waiting} tables are being computed or queued; try again later",
+                503, "busy", f"{self.waiting} computations are running or queued; try again later",
                 headers={"Retry-After": "5"},
             )
-        self.waiting += 1
-        try:
-            return await loop.run_in_executor(self.compute_pool, self._compute_and_store, prep, name)
-        finally:
-            self.waiting -= 1
 
-    def _compute_and_store(self, prep: Prepared, name: str) -> bytes:
-        payload = self.cache.get(name)  # stored by another process sharing the folder
+    async def _compute(self, prep: Prepared, name: str, limit_seconds: float) -> bytes:
+        # a request that finished while we were scheduled (or a peer process) may have stored it
+        payload = await self._cache_get(name, validator(MASTER, prep.key))
         if payload is not None:
             return payload
+        self._admit()
+        comp = self._begin(prep.key, name, limit_seconds)
+        lock = self.cache.key_lock(name)
+        try:
+            while not lock.try_acquire():  # another process computes this key: wait for its entry
+                await asyncio.sleep(PEER_POLL_SECONDS)
+                payload = await self._cache_get(name, validator(MASTER, prep.key))
+                if payload is not None:
+                    self.counters["peer_computed"] += 1
+                    return payload
+                comp.progress(comp.done, comp.total)  # our waiters may have left, or the time run out
+            try:
+                payload = await self._cache_get(name, validator(MASTER, prep.key))
+                if payload is not None:  # stored by a peer between our look and the lock
+                    return payload
+                loop = asyncio.get_running_loop()
+                return await loop.run_in_executor(self.compute_pool, self._compute_and_store, prep, name, comp)
+            finally:
+                lock.release()
+        except Cancelled as exc:
+            raise self._cancelled(exc) from None
+        finally:
+            self._end(prep.key)
+
+    def _begin(self, key: str, name: str, limit_seconds: float) -> Computation:
+        comp = Computation(name=name, limit_seconds=limit_seconds)
+        with self._lock:
+            comp.waiters = self._waiters.get(key, 0)
+            self.running[key] = comp
+        self.waiting += 1
+        return comp
+
+    def _end(self, key: str) -> None:
+        self.waiting -= 1
+        with self._lock:
+            self.running.pop(key, None)
+
+    def _cancelled(self, exc: Cancelled) -> ServiceError:
+        timed_out = "wall-clock" in exc.reason
+        self.counters["timed_out" if timed_out else "cancelled"] += 1
+        log.info("computation stopped: %s", exc.reason)
+        return ServiceError(503, "time_limit" if timed_out else "cancelled", f"the computation stopped: {exc.reason}",
+                            headers={} if timed_out else {"Retry-After": "1"})
+
+    def _compute_and_store(self, prep: Prepared, name: str, comp: Computation) -> bytes:
         with self._lock:
             self.computing += 1
         t0 = time.perf_counter()
+        ok = False
         try:
+            comp.progress(0, prep.texels)  # cancelled or out of time while queued: do not start
             # the module global is looked up at call time: tests monkeypatch it
-            table = tabulate(prep.nspec, device=self.settings.device, workers=self.settings.workers)
+            table = tabulate(prep.nspec, device=self.settings.device, workers=self.settings.workers,
+                             progress=comp.progress)
+            ok = True
         finally:
             with self._lock:
                 self.computing -= 1
                 self.computations += 1
                 self.compute_seconds += time.perf_counter() - t0
+                if not ok and comp.cancel_reason is None:
+                    self.counters["failed"] += 1
         payload = table.to_npz_bytes()
         self._store(name, payload)
         log.info("computed %s (%d texels) in %.2f s", name, prep.texels, time.perf_counter() - t0)
+        return payload
+
+    async def run_scene(self, name: str, plan: Callable[[Callable[[str], None]], bytes], client=None) -> bytes:
+        """Run ``plan(checkpoint)`` (a scene) through the same queue, slots, counters and limits.
+
+        ``checkpoint(line)`` is the planner's log callback: it raises :class:`Cancelled` when the
+        scene's waiters are gone or its time is up.
+        """
+
+        async def produce() -> bytes:
+            payload = await self._cache_get(name, validator("scene", name))
+            if payload is not None:
+                return payload
+            self._admit()
+            comp = self._begin(name, name, self.settings.max_compute_seconds)
+            try:
+                loop = asyncio.get_running_loop()
+                return await loop.run_in_executor(self.compute_pool, self._scene_and_store, name, plan, comp)
+            except Cancelled as exc:
+                raise self._cancelled(exc) from None
+            finally:
+                self._end(name)
+
+        return await self.watch(name, self.flight.run(name, produce), client)
+
+    def _scene_and_store(self, name: str, plan, comp: Computation) -> bytes:
+        with self._lock:
+            self.computing += 1
+        t0 = time.perf_counter()
+        steps = [0]
+
+        def checkpoint(_line: str) -> None:
+            steps[0] += 1
+            comp.progress(steps[0], 0)
+
+        try:
+            comp.progress(0, 0)
+            payload = plan(checkpoint)
+        finally:
+            with self._lock:
+                self.computing -= 1
+                self.computations += 1
+                self.counters["scenes"] += 1
+                self.compute_seconds += time.perf_counter() - t0
+        self._store(name, payload)
         return payload
 
     def _derive_and_store(self, name: str, master: bytes, make) -> bytes:
@@ -193,6 +492,7 @@ class TableStore:
         return payload
 
     def _store(self, name: str, payload: bytes) -> None:
+        self.memory.put(name, payload)
         try:
             self.cache.put(name, payload)
         except OSError as exc:  # a full or read-only disk: serve anyway, uncached
@@ -205,19 +505,32 @@ class TableStore:
         warm_all(self.settings.device)
 
     def health(self) -> dict:
+        with self._lock:
+            running = [c.status() for c in self.running.values()]
         return {
             "status": "ok",
             "version": __version__,
+            "pid": os.getpid(),
             "uptime_s": round(time.time() - self.started, 3),
             "computations": self.computations,
             "computing": self.computing,
             "queued": max(0, self.waiting - self.computing),
             "in_flight": len(self.flight),
             "compute_seconds": round(self.compute_seconds, 3),
+            "running": running,
+            **self.counters,
+            "limits": {"max_cost_seconds": self.settings.max_cost_seconds,
+                       "max_job_cost_seconds": self.settings.max_job_cost_seconds,
+                       "max_compute_seconds": self.settings.max_compute_seconds,
+                       "job_max_seconds": self.settings.job_max_seconds},
             "cache": self.cache.summary(),
+            "memory": self.memory.summary(),
         }
 
     def shutdown(self) -> None:
+        with self._lock:
+            for comp in self.running.values():
+                comp.cancel("the service is shutting down")
         self.compute_pool.shutdown(wait=False, cancel_futures=True)
         self.io_pool.shutdown(wait=False, cancel_futures=True)
 

@@ -9,8 +9,9 @@ Every error the service returns is JSON::
 ``param`` is the dotted spec path (as in :class:`bsdf_tab.SpecError`), ``query_param`` the
 name of the query parameter of ``GET /tables/{table}`` that sets it (when there is one).
 
-Mapping: :class:`bsdf_tab.SpecError` -> 400; unknown table -> 404; too many texels or too
-large a body -> 413; unsupported format -> 406; malformed query or body -> 400; the compute
+Mapping: :class:`bsdf_tab.SpecError` -> 400; unknown table -> 404; too many texels, too
+large a body or too costly a computation (:class:`bsdf_tab.cost.CostLimitError`) -> 413;
+a job that is not known -> 404; a computation cancelled or over its wall-clock limit -> 503; unsupported format -> 406; malformed query or body -> 400; the compute
 queue full -> 503 with ``Retry-After``; anything unexpected -> 500 (the fuzz tests make sure
 no input gets there).
 """
@@ -24,11 +25,16 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from bsdf_tab.cost import CostLimitError
 from bsdf_tab.errors import SpecError, TexelLimitError
 
-__all__ = ["ServiceError", "install_handlers", "query_param_for", "error_body"]
+__all__ = ["ClientGone", "ServiceError", "install_handlers", "query_param_for", "error_body"]
 
 log = logging.getLogger("bsdf_tab.service")
+
+
+class ClientGone(Exception):
+    """The client disconnected before its request was read or answered (one info line, no traceback)."""
 
 
 class ServiceError(Exception):
@@ -87,7 +93,27 @@ def error_body(status: int, code: str, message: str, param=None, allowed=None, q
     return {"error": err}
 
 
+#: spec parameter -> the query parameters of GET /tables/{table} that set it (cost errors)
+def _cost_query_params(params: list[str], axes: list[str]) -> str:
+    out = []
+    for p in params:
+        out += [f"{a}_size" for a in axes] if p == "axes" else [p]
+    return ",".join(out)
+
+
+def cost_error(exc: CostLimitError, axes=()) -> ServiceError:
+    """413 naming the parameters that drive the cost, the prediction, the limit and the way out."""
+    cost = exc.cost
+    allowed = {"max_cost_seconds": exc.limit, "jobs": "POST /jobs"}
+    if cost is not None:
+        allowed.update(cost.to_dict())
+    qp = _cost_query_params(list(cost.params) if cost else ["axes"], list(axes))
+    return ServiceError(413, "too_costly", exc.message, param=exc.param, allowed=allowed, query_param=qp)
+
+
 def from_spec_error(exc: SpecError) -> ServiceError:
+    if isinstance(exc, CostLimitError):
+        return cost_error(exc)
     if isinstance(exc, TexelLimitError):
         return ServiceError(413, "too_many_texels", exc.message, param=exc.param, allowed={"max_texels": exc.limit})
     status, code = 400, "invalid_parameter"
@@ -126,6 +152,11 @@ def install_handlers(app: FastAPI) -> None:
         code = {404: "not_found", 405: "method_not_allowed"}.get(exc.status_code, "http_error")
         body = error_body(exc.status_code, code, str(exc.detail))
         return _json(exc.status_code, body, getattr(exc, "headers", None))
+
+    @app.exception_handler(ClientGone)
+    async def _client_gone(request: Request, exc: ClientGone):
+        log.info("client gone: %s %s: %s", request.method, request.url.path, exc)
+        return _json(400, error_body(400, "client_gone", str(exc)))  # nobody reads it
 
     @app.exception_handler(Exception)
     async def _internal(request: Request, exc: Exception):  # pragma: no cover - a bug if reached

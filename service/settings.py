@@ -14,6 +14,15 @@ variable                       meaning                                     defau
 ``BSDF_TAB_CACHE_MAX_AGE``     ``Cache-Control: max-age`` of tables (s)    31536000
 ``BSDF_TAB_WARMUP``            compile the Warp kernels at start-up        true
 ``BSDF_TAB_HOST`` / ``_PORT``  where ``bsdf-tab serve`` listens            127.0.0.1 / 8000
+``BSDF_TAB_MAX_COST_SECONDS``  predicted core-seconds of a synchronous     60
+                               request (more -> 413: use a job)
+``BSDF_TAB_MAX_JOB_COST_SECONDS``  the same for ``POST /jobs``             86400
+``BSDF_TAB_COST_SCALE``        multiplies the cost model (other hardware)  1.0
+``BSDF_TAB_MAX_COMPUTE_SECONDS``  wall-clock limit of one synchronous      300
+                               computation (then cancelled, 503)
+``BSDF_TAB_JOB_MAX_SECONDS``   wall-clock limit of one job                 86400
+``BSDF_TAB_MEMORY_CACHE_BYTES``  in-memory LRU of served entries           64 MiB
+``BSDF_TAB_HEADER_TIMEOUT``    seconds to receive a request's headers      10
 =============================  ==========================================  =====================
 """
 
@@ -51,3 +60,10 @@ class Settings(BaseSettings):
     device: str | None = None
     cache_max_age: int = Field(31536000, ge=0)
     warmup: bool = True
+    max_cost_seconds: float = Field(60.0, gt=0)
+    max_job_cost_seconds: float = Field(86400.0, gt=0)
+    cost_scale: float = Field(1.0, gt=0)
+    max_compute_seconds: float = Field(300.0, gt=0)
+    job_max_seconds: float = Field(86400.0, gt=0)
+    memory_cache_bytes: int = Field(64 << 20, ge=0)
+    header_timeout: float = Field(10.0, gt=0)

@@ -33,7 +33,7 @@ from ..errors import ServiceError, from_spec_error, query_param_for
 from ..page_template import PAGE
 from ..params import FRESNEL_PARAMS, spec_from_query
 from ..preview import check_preview
-from .tables import store_of
+from ..dependencies import store_of
 
 router = APIRouter(tags=["pages"])
 

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
-
 from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, Response
 
 from bsdf_tab.spec import TABLE_KINDS, channel_names
 
-from ..compute import Prepared, TableStore
+from ..compute import Prepared
+from ..dependencies import etag_matches, read_json_body, store_of
 from ..errors import ServiceError
 from ..params import (
     FORMAT_PARAM,
@@ -36,8 +35,9 @@ _TABLE_RESPONSES = {
     400: {"description": "invalid parameter (the error names it)", **_ERR},
     404: {"description": "unknown table", **_ERR},
     406: {"description": "unsupported format", **_ERR},
-    413: {"description": "too many texels / body too large", **_ERR},
-    503: {"description": "too many computations queued; retry later", **_ERR},
+    413: {"description": "too many texels / body too large / predicted cost above the limit (use POST /jobs)", **_ERR},
+    503: {"description": "too many computations queued (retry later), or the computation was cancelled or ran "
+                         "out of time", **_ERR},
 }
 PREVIEW_PARAMS = [
     query_param("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
@@ -46,24 +46,9 @@ PREVIEW_PARAMS = [
 ]
 
 
-def store_of(request: Request) -> TableStore:
-    return request.app.state.store
-
-
 def _check_table(table: str) -> None:
     if table not in TABLE_KINDS:
         raise ServiceError(404, "unknown_table", f"unknown table {table[:60]!r}", param="table", allowed=list(TABLE_KINDS))
-
-
-def etag_matches(request: Request, etag: str) -> bool:
-    """Weak comparison of ``If-None-Match`` with ``etag`` (RFC 9110 13.1.2)."""
-    header = request.headers.get("if-none-match")
-    if not header:
-        return False
-    if header.strip() == "*":
-        return True
-    tags = [t.strip() for t in header.split(",")]
-    return any((t[2:] if t.startswith("W/") else t) == etag for t in tags)
 
 
 def _headers(request: Request, prep: Prepared, variant: str, vary: bool) -> dict:
@@ -87,13 +72,17 @@ async def send_variant(request: Request, prep: Prepared, variant: str, media_typ
         headers["Content-Disposition"] = f'{disposition}; filename="{filename}"'
     if etag_matches(request, headers["ETag"]):
         return Response(status_code=304, headers=headers)
-    body = await store_of(request).variant(prep, variant, derive=derive)
+    store = store_of(request)
+    body = store.cached(prep, variant)  # the hot path: memory, no thread hop
+    if body is None:
+        body = await store.variant(prep, variant, derive=derive, client=request.is_disconnected)
     return Response(body, media_type=media_type, headers=headers)
 
 
-async def send_table(request: Request, spec: dict, fmt_param: str | None) -> Response:
+async def send_table(request: Request, spec: dict | None, fmt_param: str | None, prep: Prepared | None = None) -> Response:
     fmt = negotiate(fmt_param, request.headers.get("accept"))
-    prep = store_of(request).prepare(spec)
+    if prep is None:
+        prep = store_of(request).prepare(spec)
     filename = f"{prep.kind}-{prep.key.rsplit('-', 1)[-1][:12]}.{fmt}"
     response = await send_variant(request, prep, fmt, MEDIA_TYPES[fmt], vary=fmt_param is None, filename=filename)
     response.headers["X-BSDF-Tab-Axes"] = ",".join(prep.axes)
@@ -119,8 +108,26 @@ async def get_catalog(request: Request) -> JSONResponse:
 )
 async def get_table(table: str, request: Request) -> Response:
     _check_table(table)
-    spec, extra = spec_from_query(table, request.query_params.multi_items(), extra=("format",))
-    return await send_table(request, spec, extra.get("format"))
+    items = tuple(request.query_params.multi_items())
+    prep, extra = store_of(request).prepare_query(
+        table, items, lambda: spec_from_query(table, items, extra=("format",)),
+        lambda extra: negotiate(extra.get("format"), request.headers.get("accept")))
+    return await send_table(request, None, extra.get("format"), prep)
+
+
+@router.get(
+    "/tables/by-key/{key}",
+    summary="A computed table by its cache key (a job's result): immutable, with its ETag",
+    responses={**{k: v for k, v in _TABLE_RESPONSES.items() if k not in (413, 503)},
+               404: {"description": "no table of that key is in the cache (not computed, or evicted)", **_ERR}},
+    openapi_extra={"parameters": [FORMAT_PARAM]},
+)
+async def get_by_key(key: str, request: Request) -> Response:
+    extra = only_params(request.query_params.multi_items(), ("format",))
+    fmt = negotiate(extra.get("format"), request.headers.get("accept"))
+    store = store_of(request)
+    prep = await store.prepare_key(key)
+    return await send_table(request, None, fmt if "format" in extra else None, prep)
 
 
 @router.post(
@@ -137,28 +144,6 @@ async def post_table(request: Request) -> Response:
     fmt = negotiate(extra.get("format"), request.headers.get("accept"))  # 406 before reading the body
     spec = await read_json_body(request)
     return await send_table(request, spec, fmt if "format" in extra else None)
-
-
-async def read_json_body(request: Request):
-    limit = request.app.state.settings.max_body_bytes
-    declared = request.headers.get("content-length")
-    if declared and declared.isdigit() and int(declared) > limit:
-        raise ServiceError(413, "body_too_large", f"the body has {declared} bytes; at most {limit}", param="body",
-                           allowed={"max_body_bytes": limit})
-    chunks, size = [], 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > limit:
-            raise ServiceError(413, "body_too_large", f"the body is larger than {limit} bytes", param="body",
-                               allowed={"max_body_bytes": limit})
-        chunks.append(chunk)
-    raw = b"".join(chunks)
-    if not raw.strip():
-        raise ServiceError(400, "invalid_body", "the body must be a spec JSON object, got an empty body", param="body")
-    try:
-        return json.loads(raw)
-    except (ValueError, RecursionError) as exc:  # JSONDecodeError, bad UTF-8, too-deep nesting
-        raise ServiceError(400, "invalid_body", f"the body is not valid JSON: {str(exc)[:200]}", param="body") from None
 
 
 @router.get(

@@ -1,0 +1,70 @@
+"""What the routers share: the store, ETag matching, strict JSON body reading.
+
+Routers never import each other; everything two of them need lives here.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+
+from fastapi import Request
+from starlette.requests import ClientDisconnect
+
+from .compute import TableStore
+from .errors import ClientGone, ServiceError
+
+__all__ = ["ClientGone", "etag_matches", "read_json_body", "store_of"]
+
+log = logging.getLogger("bsdf_tab.service")
+
+
+def store_of(request: Request) -> TableStore:
+    """The app's :class:`~service.compute.TableStore`."""
+    return request.app.state.store
+
+
+def etag_matches(request: Request, etag: str) -> bool:
+    """Weak comparison of ``If-None-Match`` with ``etag`` (RFC 9110 13.1.2)."""
+    header = request.headers.get("if-none-match")
+    if not header:
+        return False
+    if header.strip() == "*":
+        return True
+    tags = [t.strip() for t in header.split(",")]
+    return any((t[2:] if t.startswith("W/") else t) == etag for t in tags)
+
+
+def _no_duplicates(pairs: list) -> dict:
+    seen = {}
+    for key, value in pairs:
+        if key in seen:  # JSON allows it, but which one was meant is a guess: refuse it
+            raise ServiceError(400, "invalid_body", f"the key {key[:60]!r} is given more than once", param=f"body.{key[:60]}")
+        seen[key] = value
+    return seen
+
+
+async def read_json_body(request: Request):
+    """The request body as JSON: at most ``max_body_bytes`` (413), valid JSON (400), no repeated key (400)."""
+    limit = request.app.state.settings.max_body_bytes
+    declared = request.headers.get("content-length")
+    if declared and declared.isdigit() and int(declared) > limit:
+        raise ServiceError(413, "body_too_large", f"the body has {declared} bytes; at most {limit}", param="body",
+                           allowed={"max_body_bytes": limit})
+    chunks, size = [], 0
+    try:
+        async for chunk in request.stream():
+            size += len(chunk)
+            if size > limit:
+                raise ServiceError(413, "body_too_large", f"the body is larger than {limit} bytes", param="body",
+                                   allowed={"max_body_bytes": limit})
+            chunks.append(chunk)
+    except ClientDisconnect:
+        raise ClientGone(f"{request.method} {request.url.path}: the client disconnected mid-body") from None
+    raw = b"".join(chunks)
+    if not raw.strip():
+        raise ServiceError(400, "invalid_body", "the body must be a JSON object, got an empty body", param="body")
+    try:
+        return json.loads(raw, object_pairs_hook=_no_duplicates)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, bad UTF-8, too-deep nesting
+        raise ServiceError(400, "invalid_body", f"the body is not valid JSON: {str(exc)[:200]}", param="body") from None
