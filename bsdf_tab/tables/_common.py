@@ -8,21 +8,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..integrate import get_method
-from ..model import (
-    BECKMANN,
-    CORRELATED,
-    FRESNEL_CONDUCTOR,
-    FRESNEL_DIELECTRIC,
-    FRESNEL_ONE,
-    FRESNEL_SCHLICK,
-    GGX,
-    SEPARABLE,
-)
 from ..axes import alpha_values
-
-_DIST = {"ggx": GGX, "beckmann": BECKMANN}
-_SHADOWING = {"separable": SEPARABLE, "correlated": CORRELATED}
+from ..integrate import get_method
+from ..integrate.quadrature import GK_WG, GK_WK, GK_X
+from ..model.distribution import DISTRIBUTIONS
+from ..model.fresnel import FRESNELS
+from ..model.shadowing import SHADOWINGS
 
 
 @dataclass
@@ -56,19 +47,19 @@ class Context:
 def integrator_params(nspec: dict) -> dict:
     """Keyword arguments of :func:`integrate_texels` from a normalized spec."""
     fres = nspec.get("fresnel") or {"type": "one"}
-    ftype, p0, p1 = FRESNEL_ONE, 0.0, 0.0
+    ftype, p0, p1 = "one", 0.0, 0.0
     if fres["type"] == "schlick":
-        ftype, p0 = FRESNEL_SCHLICK, fres["f0"]
+        ftype, p0 = "schlick", fres["f0"]
     elif fres["type"] == "dielectric" and "eta" in fres:
-        ftype, p0 = FRESNEL_DIELECTRIC, fres["eta"]
+        ftype, p0 = "dielectric", fres["eta"]
     elif fres["type"] == "conductor":
-        ftype, p0, p1 = FRESNEL_CONDUCTOR, fres["eta"], fres["k"]
+        ftype, p0, p1 = "conductor", fres["eta"], fres["k"]
     extra = {"effort": nspec["effort"]} if nspec.get("effort") is not None else {}
     return {
         **extra,
-        "dist": int(_DIST[nspec["distribution"]]),
-        "shadowing": int(_SHADOWING[nspec["shadowing"]]),
-        "ftype": int(ftype),
+        "dist": int(DISTRIBUTIONS[nspec["distribution"]]),
+        "shadowing": int(SHADOWINGS[nspec["shadowing"]]),
+        "ftype": int(FRESNELS[ftype]),
         "fp0": float(p0),
         "fp1": float(p1),
         "tol": float(nspec["tolerance"]),
@@ -95,24 +86,6 @@ def run_grid(mode: str, nspec: dict, axes: dict, ctx: Context, eta_axis: np.ndar
     return values.reshape(shape + (2,)), errors.reshape(shape + (2,))
 
 
-# Gauss-Kronrod 7-15 on [-1, 1] (QUADPACK qk15): abscissae (positive half, centre last), weights
-_XGK = np.array([
-    0.991455371120812639206854697526329, 0.949107912342758524526189684047851,
-    0.864864423359769072789712788640926, 0.741531185599394439863864773280788,
-    0.586087235467691130294144845693013, 0.405845151377397166906606412076961,
-    0.207784955007898467600689403773245, 0.0,
-])
-_WGK = np.array([
-    0.022935322010529224963732008058970, 0.063092092629978553290700663189204,
-    0.104790010322250183839876322541518, 0.140653259715525918745189590510238,
-    0.169004726639267902826583426598550, 0.190350578064785409913256402421014,
-    0.204432940075298892414161999234649, 0.209482141084727828012999174891714,
-])
-_WG7 = np.array([0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
-                 0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327])
-GK_X = np.concatenate([_XGK, -_XGK[:7]])
-GK_WK = np.concatenate([_WGK, _WGK[:7]])
-GK_WG = np.concatenate([_WG7, _WG7[:7]])
 
 
 def mu_average(
