@@ -18,13 +18,16 @@ NAME = "check"
 HELP = "identify a LUT file and report what is wrong with it (the LUT doctor)"
 
 
-def _shape(text: str) -> tuple[int, ...]:
+def _shape(text: str | None) -> tuple[int, ...] | None:
+    """``--shape H,W[,C]`` (one-line CliError when malformed: argparse's own errors print the usage)."""
+    if text is None:
+        return None
     try:
-        shape = tuple(int(x) for x in text.replace("x", ",").split(",") if x.strip())
+        shape = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be integers separated by commas (32,32 or 16,16,2), got {text!r}")
+        raise CliError(f"--shape: give integers separated by commas (32,32 or 16,16,2), got {text!r}") from None
     if not 1 <= len(shape) <= 3 or min(shape) < 1:
-        raise argparse.ArgumentTypeError(f"must be 1 to 3 positive sizes, got {text!r}")
+        raise CliError(f"--shape: give 1 to 3 positive sizes, got {text!r}")
     return shape
 
 
@@ -34,9 +37,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("lut", help="the LUT file: .exr, .ktx2, .dds, .png, .npy, or a C/C++/JS array file")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
     parser.add_argument("--heatmap", metavar="PNG", help="write a heatmap of |file - best match| to this PNG")
-    parser.add_argument("--shape", type=_shape, metavar="H,W[,C]", help="shape of an array file's numbers")
-    parser.add_argument("--array-values", choices=ARRAY_VALUES, default="float",
-                        help="how an array file's numbers are read (half: IEEE binary16 bit patterns)")
+    parser.add_argument("--shape", metavar="H,W[,C]", help="shape of an array file's numbers (32,32 or 16,16,2)")
+    parser.add_argument("--array-values", default="float", metavar="|".join(ARRAY_VALUES),
+                        help="how an array file's numbers are read (float; half: IEEE binary16 bit patterns; "
+                             "unorm8, unorm16: integers / 255, / 65535)")
     parser.add_argument("--axes", metavar="ROWS,COLUMNS",
                         help="the axes you believe the file has, rows first (e.g. mu,roughness): "
                              "the report says if the data disagrees")
@@ -56,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         expect = [a.strip() for a in args.axes.split(",")]
         if len(expect) != 2 or not all(expect):
             raise CliError(f"--axes: give two names, rows first (mu,roughness), got {args.axes!r}")
-    report = check_lut(path, shape=args.shape, array_values=args.array_values, expect_axes=expect,
+    report = check_lut(path, shape=_shape(args.shape), array_values=args.array_values, expect_axes=expect,
                        heatmap=args.heatmap)
     if args.json:
         print(json.dumps(report.to_dict(), allow_nan=False))

@@ -55,6 +55,15 @@ def _quantization(img: LutImage, data: np.ndarray) -> tuple[str, float]:
     return img.storage, 0.0
 
 
+def _storage_rms(storage: str, step: float, data: np.ndarray) -> float:
+    """The rms rounding error the storage alone puts in the texels (uniform rounding: step / sqrt(12))."""
+    if storage == "float16":
+        finite = data[np.isfinite(data)]
+        ulp = np.spacing(np.abs(finite).astype(np.float16)).astype(np.float64)
+        return float(np.sqrt(np.mean(ulp**2) / 12.0)) if finite.size else 0.0
+    return step / math.sqrt(12.0)
+
+
 def _hf(r: np.ndarray) -> np.ndarray:
     """Residual minus the mean of its (up to 8) neighbours: the texel-to-texel part."""
     pad = np.pad(r, 1, mode="edge")
@@ -155,7 +164,7 @@ def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "l
     worst_mu = mu_h.values(mu_n)[ri[worst[0]] if mu_rows else ci[worst[1]]]
     worst_alpha = ro_h.values(ro_n)[ci[worst[1]] if mu_rows else ri[worst[0]]]
     report.worst.update(mu=float(worst_mu), alpha=float(worst_alpha))
-    _findings(report, best, resid, mu_rows, mu_vals, step, _claimed_axes(img, expect_axes), nan_note)
+    _findings(report, best, resid, mu_rows, mu_vals, step, _claimed_axes(img, expect_axes), nan_note, data)
     if heatmap is not None:
         report.write_heatmap(heatmap)
     return report
@@ -175,7 +184,7 @@ def _alternatives(ranked: list[Hypothesis]) -> list[dict]:
 
 
 def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool, mu_vals: np.ndarray,
-              step: float, claimed, nan_note) -> None:
+              step: float, claimed, nan_note, report_data: np.ndarray) -> None:
     f = report.findings
     if nan_note:
         f.append(nan_note)
@@ -230,7 +239,7 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
         f.append("stored as float16: rounding up to 2.4e-4 for values in [0.5, 1)")
     # noise: texel-to-texel residual above the storage's share
     hf = np.sqrt(np.nanmean(np.stack([_hf(resid[:, :, k]) ** 2 for k in range(resid.shape[2])]), axis=0))
-    floor = max(3.0 * step / math.sqrt(12.0), 3e-6)
+    floor = max(3.0 * _storage_rms(report.storage, step, report_data), 3e-6)
     rms = float(np.sqrt(np.nanmean(hf**2)))
     if rms > floor:
         graze = mu_vals < 0.25

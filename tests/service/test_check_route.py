@@ -1,0 +1,74 @@
+"""``POST /check`` (service/routes/check.py): the doctor's report over HTTP, and its 4xx errors."""
+
+from __future__ import annotations
+
+import base64
+import io
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+from fastapi.testclient import TestClient  # noqa: E402
+
+import bsdf_tab  # noqa: E402
+from service.app import create_app  # noqa: E402
+from service.routes import check  # noqa: E402
+from service.settings import Settings  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    settings = Settings(cache_dir=tmp_path_factory.mktemp("svc-check"), warmup=False, max_texels=64, workers=2)
+    app = create_app(settings)
+    if not any(getattr(r, "path", None) == "/check" for r in app.routes):
+        app.include_router(check.router)
+    with TestClient(app) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def flipped_npy() -> bytes:
+    t = bsdf_tab.tabulate({"table": "dfg", "tolerance": 1e-6, "axes": {"mu": {"size": 16}, "roughness": {"size": 16}}})
+    buf = io.BytesIO()
+    np.save(buf, np.stack([t.channels["A"], t.channels["B"]], axis=-1)[::-1])
+    return buf.getvalue()
+
+
+def err(r, status, param):
+    assert r.status_code == status, r.text
+    body = r.json()["error"]
+    assert body["param"] == param and body["message"] and "Traceback" not in r.text
+    return body
+
+
+def test_report(client, flipped_npy):
+    r = client.post("/check?heatmap=1", content=flipped_npy, headers={"content-type": "application/octet-stream"})
+    assert r.status_code == 200, r.text
+    rep = r.json()
+    assert (rep["table"], rep["distribution"], rep["shadowing"]) == ("dfg", "ggx", "correlated")
+    assert rep["channels"] == {"0": "A", "1": "B"}
+    assert rep["axes"][0]["name"] == "mu" and rep["axes"][0]["reversed"] is True
+    assert any("Y flipped" in f for f in rep["findings"]) and rep["max_error"] < 1e-5
+    assert base64.b64decode(rep["heatmap_png"])[:4] == b"\x89PNG"
+
+
+def test_array_file_with_shape(client):
+    values = ", ".join(f"{v:.6f}" for v in np.linspace(0.1, 0.9, 16))
+    r = client.post("/check?name=lut.h", content=f"float lut[4][4] = {{{values}}};".encode())
+    err(r, 400, "shape")
+    r = client.post("/check?shape=4,x", content=b"float lut[1] = {0};")
+    err(r, 400, "shape")
+
+
+@pytest.mark.parametrize("query,param", [("array_values=int", "array_values"), ("axes=mu", "axes"),
+                                         ("heatmap=maybe", "heatmap"), ("color=1", "color")])
+def test_bad_parameters(client, flipped_npy, query, param):
+    err(client.post(f"/check?{query}", content=flipped_npy), 400, param)
+
+
+def test_bad_bodies(client):
+    err(client.post("/check", content=b""), 400, "body")
+    err(client.post("/check", content=b"\x89PNG\r\n\x1a\nbroken"), 400, "body")
+    big = b"0" * (check.MAX_LUT_BYTES + 1)
+    err(client.post("/check", content=big), 413, "body")
