@@ -103,6 +103,7 @@ class Report:
             "max_error": self.max_error,
             "mean_error": self.mean_error,
             "max_error_at": self.worst,
+            "screening_error": b.score,
             "checked_texels": {"rows": self.checked[0], "columns": self.checked[1],
                                "against": "the best match baked exactly at the file's nodes"},
             "noise": self.noise,

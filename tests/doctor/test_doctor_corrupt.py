@@ -164,3 +164,12 @@ def test_unusable_inputs_are_one_clear_error(ours, bad):
     data = data[:3, :3] if bad == "tiny" else np.ones((8, 8, 1))
     with pytest.raises(SpecError, match="lut: "):
         _check(data)
+
+
+def test_claimed_endpoints_but_baked_at_centres(tmp_path):
+    """A bsdf-tab EXR whose mu axis says endpoints i/(n-1) while its texels were baked at (i + 1/2)/n."""
+    centres = dfg_table(mu=(np.arange(N) + 0.5) / N)
+    lied = bsdf_tab.Table({"mu": unit(), "roughness": centres.axes["roughness"]}, centres.channels, centres.meta)
+    r = check_lut(_write(lied, tmp_path / "centres.exr")).to_dict()
+    assert r["axes"][0]["nodes"] == "centers"
+    assert _has(r, "grid offset along the rows: the file says endpoints, the data sits at centers")
