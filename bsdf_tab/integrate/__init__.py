@@ -4,6 +4,20 @@ Every method has the signature of :func:`bsdf_tab.integrate.adaptive.integrate_t
 (``mode, mu, alpha, eta, *, dist, shadowing, ftype, fp0, fp1, tol, device, workers, progress``,
 plus optional ``effort``) and returns ``(values, errors)`` of shape (N, 2). :data:`METHODS`
 maps the spec's ``method`` name to it.
+
+Modules:
+
+* ``integrand.py``: what every method shares on the device: the texel struct, the integrand
+  families (:data:`~bsdf_tab.integrate.integrand.MODES`), the one integrand over micro-normals
+  (and over outgoing directions), the mirror limit alpha = 0, the kernel preamble;
+* ``quadrature.py``: the Gauss-Kronrod 7-15 constants (host arrays and device constants) and
+  the one global-bisection routine;
+* ``runtime.py``: the device, worker threads over texel chunks, the host preamble;
+* ``adaptive.py`` (default), ``grid.py``, ``montecarlo.py``, ``vndf_gl.py``: the methods;
+  ``fixed.py``: the host side the fixed-effort methods share.
+
+Distribution knowledge (D, Lambda, the D cos CDF and its inverse, sampling) comes from
+:mod:`bsdf_tab.model` only.
 """
 
 from .adaptive import integrate_texels

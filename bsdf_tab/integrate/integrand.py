@@ -72,9 +72,6 @@ class TexelParams:
     err_model: wp.int32  # adaptive only; 0: |K15 - G7|, 1: QUADPACK rescaling
 
 
-Tex = TexelParams  # the fixed-effort methods' former name
-
-
 @wp.func
 def make_texel(mode: wp.int32, dist: wp.int32, shadowing: wp.int32, ftype: wp.int32, fp0: wp.float64,
                fp1: wp.float64, mu_in: wp.float64, alpha: wp.float64, eta: wp.float64):
@@ -95,9 +92,6 @@ def make_texel(mode: wp.int32, dist: wp.int32, shadowing: wp.int32, ftype: wp.in
     p.eta = eta
     p.li = lambda_cos(mu, alpha, dist)
     return p
-
-
-make_tex = make_texel  # the fixed-effort methods' former name
 
 
 @wp.func

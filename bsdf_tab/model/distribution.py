@@ -6,48 +6,29 @@ integer id, the ``wp.int32`` selector every ``@wp.func`` below takes as ``dist``
 positions in :data:`_MODULES`, and :data:`GGX` / :data:`BECKMANN` are the same ids as Warp
 constants. Other layers (spec, tables, scene, benchmarks) read names and ids from here.
 
-Device side: each operation dispatches on ``dist`` to the distribution's own module
-(``ggx.py``, ``beckmann.py``), which holds everything that distribution knows. An unknown id
-falls back to the first distribution (GGX), as it always has.
+Device side: each operation (:func:`D`, :func:`Lambda`, :func:`lambda_cos`, :func:`sample_vndf`,
+the D cos CDF functions, :func:`dlnD_dcos`) dispatches on ``dist`` to the distribution's own
+module (``ggx.py``, ``beckmann.py``), which holds everything that distribution knows. The
+dispatchers are generated from the registry (a chain of ``@wp.func`` closures, see
+:func:`_dispatch`); an unknown id falls back to the first distribution (GGX), as it always has.
+:func:`smith_G1` and :func:`pdf_vndf` are written once on top of them.
 
 Adding a distribution: a module like ``ggx.py`` (``NAME``, ``DESCRIPTION`` and the functions
 ``<name>_D``, ``_lambda``, ``_lambda_cos``, ``_sample_vndf``, ``_dcos_sample_tan``,
-``_dcos_tan_of_v``, ``_dcos_v_of_theta``, ``_dlnD_dcos``), its entry in :data:`_MODULES`, and
-one ``if dist == ...`` branch per dispatcher below (Warp has no function pointers: the branches
-are the device half of the registry; ``tests/model`` checks that every registered id reaches its
-own module's functions).
+``_dcos_tan_of_v``, ``_dcos_v_of_theta``, ``_dlnD_dcos``) and its name in :data:`_NAMES`. The
+tests in ``tests/model`` and ``tests/integrate`` are parametrized over :data:`DISTRIBUTIONS`
+(the reference in ``tests/reference`` needs the new D and Lambda too).
 """
 
+import importlib
 from typing import Any
 
 import warp as wp
 
-from . import beckmann as _beckmann
-from . import ggx as _ggx
-from .beckmann import (
-    beckmann_D,
-    beckmann_dcos_sample_tan,
-    beckmann_dcos_tan_of_v,
-    beckmann_dcos_v_of_theta,
-    beckmann_dlnD_dcos,
-    beckmann_lambda,
-    beckmann_lambda_cos,
-    beckmann_sample_vndf,
-)
-from .ggx import (
-    ggx_D,
-    ggx_dcos_sample_tan,
-    ggx_dcos_tan_of_v,
-    ggx_dcos_v_of_theta,
-    ggx_dlnD_dcos,
-    ggx_lambda,
-    ggx_lambda_cos,
-    ggx_sample_vndf,
-)
-
-# the registry: a distribution's id is its position here (ids are stored in tables' metadata
-# and specs' hashes only through their names, but keep existing positions stable anyway)
-_MODULES = (_ggx, _beckmann)
+# the registry: one module per distribution, named here; a distribution's id is its position
+# (ids never leave the process: specs, tables and hashes carry names; keep positions anyway)
+_NAMES = ("ggx", "beckmann")
+_MODULES = tuple(importlib.import_module(f".{name}", __package__) for name in _NAMES)
 
 DISTRIBUTIONS = {m.NAME: i for i, m in enumerate(_MODULES)}
 """name -> integer id (the ``dist`` selector of every dispatcher)."""
@@ -67,28 +48,96 @@ def distribution_id(name: str) -> int:
         raise ValueError(f"unknown distribution {name!r}; one of {', '.join(DISTRIBUTIONS)}") from None
 
 
-@wp.func
-def D(cos_theta_m: Any, alpha: Any, dist: wp.int32):
-    """Microfacet distribution D(m) of micro-normal cosine ``cos_theta_m``."""
-    if dist == BECKMANN:
-        return beckmann_D(cos_theta_m, alpha)
-    return ggx_D(cos_theta_m, alpha)
+def _dispatch(op: str, doc: str):
+    """``op(x, alpha, dist)``: ``<name>_<op>(x, alpha)`` of the registered distribution with id ``dist``.
+
+    Built from :data:`_MODULES` as a chain of ``@wp.func`` closures, ``if dist == id: return
+    f(x, alpha)`` down the registry, ending in the first module's function (the fallback for an
+    unknown id, GGX as it has always been). Warp compiles each closure to its own C++ function and
+    the compiler inlines the chain: the same code as hand-written branches.
+    """
+    funcs = [getattr(m, f"{m.NAME}_{op}") for m in _MODULES]
+    fallback = funcs[0]
+
+    @wp.func(name=f"dispatch_{op}_0")
+    def last(x: Any, alpha: Any, dist: wp.int32):
+        return fallback(x, alpha)
+
+    nxt = last
+    for i in range(len(funcs) - 1, 0, -1):
+        nxt = _branch(op, i, funcs[i], nxt)
+    nxt.__doc__ = doc
+    return nxt
 
 
-@wp.func
-def Lambda(cos_theta_v: Any, alpha: Any, dist: wp.int32):
-    """Exact Smith Lambda(v) (infinite at grazing for alpha > 0)."""
-    if dist == BECKMANN:
-        return beckmann_lambda(cos_theta_v, alpha)
-    return ggx_lambda(cos_theta_v, alpha)
+def _branch(op: str, i: int, f, nxt):
+    @wp.func(name=f"dispatch_{op}_{i}")
+    def step(x: Any, alpha: Any, dist: wp.int32):
+        if dist == i:
+            return f(x, alpha)
+        return nxt(x, alpha, dist)
+
+    return step
 
 
-@wp.func
-def lambda_cos(cos_theta_v: Any, alpha: Any, dist: wp.int32):
-    """|cos theta_v| * Lambda(v): finite at grazing, used to form G without 0 * inf."""
-    if dist == BECKMANN:
-        return beckmann_lambda_cos(cos_theta_v, alpha)
-    return ggx_lambda_cos(cos_theta_v, alpha)
+def _dispatch_sample(op: str, doc: str):
+    """As :func:`_dispatch` for the samplers ``<name>_<op>(wi, alpha, u1, u2)``."""
+    funcs = [getattr(m, f"{m.NAME}_{op}") for m in _MODULES]
+    fallback = funcs[0]
+
+    @wp.func(name=f"dispatch_{op}_0")
+    def last(wi: Any, alpha: Any, u1: Any, u2: Any, dist: wp.int32):
+        return fallback(wi, alpha, u1, u2)
+
+    nxt = last
+    for i in range(len(funcs) - 1, 0, -1):
+        nxt = _branch_sample(op, i, funcs[i], nxt)
+    nxt.__doc__ = doc
+    return nxt
+
+
+def _branch_sample(op: str, i: int, f, nxt):
+    @wp.func(name=f"dispatch_{op}_{i}")
+    def step(wi: Any, alpha: Any, u1: Any, u2: Any, dist: wp.int32):
+        if dist == i:
+            return f(wi, alpha, u1, u2)
+        return nxt(wi, alpha, u1, u2, dist)
+
+    return step
+
+
+# ---------------------------------------------------------------- the dispatchers (generated)
+
+D = _dispatch("D", "Microfacet distribution D(m) of micro-normal cosine ``cos_theta_m``: D(cos_theta_m, alpha, dist).")
+Lambda = _dispatch("lambda", "Exact Smith Lambda(v) (infinite at grazing for alpha > 0): Lambda(cos_theta_v, alpha, dist).")
+lambda_cos = _dispatch(
+    "lambda_cos",
+    "|cos theta_v| * Lambda(v): finite at grazing, used to form G without 0 * inf: lambda_cos(cos_theta_v, alpha, dist).",
+)
+sample_vndf = _dispatch_sample(
+    "sample_vndf",
+    "Visible-normal sample for ``wi`` (wi.z > 0) from two uniform numbers in [0, 1): sample_vndf(wi, alpha, u1, u2, dist).",
+)
+dcos_sample_tan = _dispatch(
+    "dcos_sample_tan",
+    "tan(theta_m) at the value ``u`` in [0, 1) of the CDF of D(m) cos(theta_m) in theta_m: dcos_sample_tan(u, alpha, dist).\n\n"
+    "With phi_m uniform in [0, 2 pi) this samples micro-normals with density D(m) cos(theta_m).",
+)
+dcos_tan_of_v = _dispatch(
+    "dcos_tan_of_v",
+    "tan(theta_m) at v in [0, 1), where u = 1 - (1 - v)^2 is the D cos CDF: dcos_tan_of_v(v, alpha, dist).\n\n"
+    "The adaptive integrator's outer variable: D cos dw_m = 2 (1 - v) dv dphi / (2 pi), and the "
+    "(1 - u)^(-1/2) growth of tan(theta_m) at grazing is removed.",
+)
+dcos_v_of_theta = _dispatch(
+    "dcos_v_of_theta",
+    "Inverse of :func:`dcos_tan_of_v`: v at theta_m in [0, pi/2] (1 at and beyond pi/2): dcos_v_of_theta(theta, alpha, dist).",
+)
+dlnD_dcos = _dispatch(
+    "dlnD_dcos",
+    "Bound on |d ln D / d cos theta_m| (how much a relative error in cos theta_m grows in D): "
+    "dlnD_dcos(cos_theta_m, alpha, dist).",
+)
 
 
 @wp.func
@@ -101,14 +150,6 @@ def smith_G1(v: Any, m: Any, alpha: Any, dist: wp.int32):
         return zero
     az = wp.abs(z)
     return az / (az + lambda_cos(z, alpha, dist))
-
-
-@wp.func
-def sample_vndf(wi: Any, alpha: Any, u1: Any, u2: Any, dist: wp.int32):
-    """Visible-normal sample for ``wi`` (wi.z > 0) from two uniform numbers in [0, 1)."""
-    if dist == BECKMANN:
-        return beckmann_sample_vndf(wi, alpha, u1, u2)
-    return ggx_sample_vndf(wi, alpha, u1, u2)
 
 
 @wp.func
@@ -126,40 +167,3 @@ def pdf_vndf(wi: Any, m: Any, alpha: Any, dist: wp.int32):
     return smith_G1(wi, m, alpha, dist) * c * D(m[2], alpha, dist) / z
 
 
-@wp.func
-def dcos_sample_tan(u: Any, alpha: Any, dist: wp.int32):
-    """tan(theta_m) at the value ``u`` in [0, 1) of the CDF of D(m) cos(theta_m) in theta_m.
-
-    With phi_m uniform in [0, 2 pi) this samples micro-normals with density D(m) cos(theta_m).
-    """
-    if dist == BECKMANN:
-        return beckmann_dcos_sample_tan(u, alpha)
-    return ggx_dcos_sample_tan(u, alpha)
-
-
-@wp.func
-def dcos_tan_of_v(v: Any, alpha: Any, dist: wp.int32):
-    """tan(theta_m) at v in [0, 1), where u = 1 - (1 - v)^2 is the D cos CDF.
-
-    The adaptive integrator's outer variable: D cos dw_m = 2 (1 - v) dv dphi / (2 pi), and the
-    (1 - u)^(-1/2) growth of tan(theta_m) at grazing is removed.
-    """
-    if dist == BECKMANN:
-        return beckmann_dcos_tan_of_v(v, alpha)
-    return ggx_dcos_tan_of_v(v, alpha)
-
-
-@wp.func
-def dcos_v_of_theta(theta: Any, alpha: Any, dist: wp.int32):
-    """Inverse of :func:`dcos_tan_of_v`: v at theta_m in [0, pi/2] (1 at and beyond pi/2)."""
-    if dist == BECKMANN:
-        return beckmann_dcos_v_of_theta(theta, alpha)
-    return ggx_dcos_v_of_theta(theta, alpha)
-
-
-@wp.func
-def dlnD_dcos(cos_theta_m: Any, alpha: Any, dist: wp.int32):
-    """Bound on |d ln D / d cos theta_m|: how much a relative error in cos theta_m grows in D."""
-    if dist == BECKMANN:
-        return beckmann_dlnD_dcos(cos_theta_m, alpha)
-    return ggx_dlnD_dcos(cos_theta_m, alpha)

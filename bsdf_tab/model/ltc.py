@@ -19,8 +19,8 @@ shading point. Generic over float32 / float64 (``wp.mat33f`` / ``wp.mat33d`` wit
 - ``ltc_edge(a, b)``: theta (a x b).z / |a x b| for one edge (Lambert's edge term).
 - ``ltc_polygon_integral(Minv, vertices)``: for a 1-D ``wp.array`` of ``vec3`` (the polygon,
   any number of vertices), the integral of the clamped cosine max(0, w_z) / pi over the
-  polygon transformed by Minv and clipped to the upper hemisphere; positive for vertices
-  winding counter-clockwise about +z (take ``abs`` for a two-sided light).
+  polygon transformed by Minv and clipped to the upper hemisphere; positive when
+  (v1 - v0) x (v2 - v0) points away from the shading point (take ``abs`` for a two-sided light).
 - ``ltc_quad_integral(Minv, p0, p1, p2, p3)``: the same for a quad given by its vertices.
 """
 
