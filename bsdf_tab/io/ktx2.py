@@ -73,7 +73,13 @@ VK_FORMATS: dict[str, tuple[int, str, int, str]] = {
     "A2B10G10R10_UNORM_PACK32": (64, "RGBA", 10, "pack32"),
 }
 _BY_VALUE = {v[0]: k for k, v in VK_FORMATS.items()}
-_PREFIX = {("float", 16): "16_SFLOAT", ("float", 32): "32_SFLOAT", ("unorm", 16): "16_UNORM", ("unorm", 8): "8_UNORM"}
+#: (kind, bits) -> the format names for 1, 2 and 3-4 channels
+_BY_ENCODING = {
+    ("float", 16): ("R16_SFLOAT", "R16G16_SFLOAT", "R16G16B16A16_SFLOAT"),
+    ("float", 32): ("R32_SFLOAT", "R32G32_SFLOAT", "R32G32B32A32_SFLOAT"),
+    ("unorm", 16): ("R16_UNORM", "R16G16_UNORM", "R16G16B16A16_UNORM"),
+    ("unorm", 8): ("R8_UNORM", "R8G8_UNORM", "R8G8B8A8_UNORM"),
+}
 
 
 def vk_format(encoding: str, n_channels: int) -> str:
@@ -91,9 +97,7 @@ def vk_format(encoding: str, n_channels: int) -> str:
         if n_channels > 3:
             raise ValueError("unorm10 (A2B10G10R10_UNORM_PACK32) holds at most 3 channels (A has 2 bits)")
         return "A2B10G10R10_UNORM_PACK32"
-    suffix = _PREFIX[(enc.kind, enc.bits)]
-    comps = {1: "R", 2: "RG", 3: "RGBA", 4: "RGBA"}[n_channels]
-    return "".join(f"{c}{suffix.split('_')[0]}" for c in comps) + "_" + suffix.split("_")[1]
+    return _BY_ENCODING[(enc.kind, enc.bits)][min(n_channels, 3) - 1]
 
 
 def _texel_bytes(name: str) -> int:
