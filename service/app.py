@@ -19,6 +19,8 @@ from bsdf_tab.api import quiet_warp
 
 from .compute import TableStore
 from .errors import install_handlers
+from .jobs import Jobs
+from .routes import jobs as jobs_routes
 from .routes import pages, scenes, tables
 from .settings import Settings
 
@@ -43,6 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     quiet_warp()
     store = TableStore(settings)
+    jobs = Jobs(store)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -51,10 +54,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             loop = asyncio.get_running_loop()
             warm = loop.run_in_executor(store.compute_pool, store.warmup)  # in the background
         try:
+            resumed = jobs.recover()  # jobs a dead process left queued or running
+            if resumed:
+                log.info("resumed %d job(s)", resumed)
+        except Exception as exc:  # an unreadable job database must not keep the service down
+            log.warning("cannot recover jobs from %s: %s", jobs.db.path, exc)
+        try:
             yield
         finally:
             if warm is not None and not warm.done():
                 warm.cancel()
+            await jobs.shutdown()
             store.shutdown()
 
     app = FastAPI(
@@ -65,14 +75,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = store
+    app.state.jobs = jobs
     install_handlers(app)
     app.include_router(tables.router)
     app.include_router(pages.router)
     app.include_router(scenes.router)
+    app.include_router(jobs_routes.router)
 
-    @app.get("/healthz", tags=["health"], summary="Liveness and counters (never waits on a computation)")
+    @app.api_route("/healthz", methods=["GET", "HEAD"], tags=["health"],
+                   summary="Liveness and counters (never waits on a computation)")
     async def healthz(request: Request) -> JSONResponse:
-        return JSONResponse(store.health(), headers={"Cache-Control": "no-store"})
+        return JSONResponse({**store.health(), "jobs": jobs.health()}, headers={"Cache-Control": "no-store"})
 
     return app
 

@@ -441,7 +441,8 @@ class TableStore:
         log.info("computed %s (%d texels) in %.2f s", name, prep.texels, time.perf_counter() - t0)
         return payload
 
-    async def run_scene(self, name: str, plan: Callable[[Callable[[str], None]], bytes], client=None) -> bytes:
+    async def run_scene(self, name: str, plan: Callable[[Callable[[str], None]], bytes], client=None,
+                        limit_seconds: float | None = None) -> bytes:
         """Run ``plan(checkpoint)`` (a scene) through the same queue, slots, counters and limits.
 
         ``checkpoint(line)`` is the planner's log callback: it raises :class:`Cancelled` when the
@@ -453,7 +454,8 @@ class TableStore:
             if payload is not None:
                 return payload
             self._admit()
-            comp = self._begin(name, name, self.settings.max_compute_seconds)
+            limit = self.settings.max_compute_seconds if limit_seconds is None else limit_seconds
+            comp = self._begin(name, name, limit)
             try:
                 loop = asyncio.get_running_loop()
                 return await loop.run_in_executor(self.compute_pool, self._scene_and_store, name, plan, comp)

@@ -14,7 +14,7 @@ from starlette.requests import ClientDisconnect
 from .compute import TableStore
 from .errors import ClientGone, ServiceError
 
-__all__ = ["ClientGone", "etag_matches", "read_json_body", "store_of"]
+__all__ = ["ClientGone", "etag_matches", "jobs_of", "read_json_body", "store_of"]
 
 log = logging.getLogger("bsdf_tab.service")
 
@@ -22,6 +22,11 @@ log = logging.getLogger("bsdf_tab.service")
 def store_of(request: Request) -> TableStore:
     """The app's :class:`~service.compute.TableStore`."""
     return request.app.state.store
+
+
+def jobs_of(request: Request):
+    """The app's :class:`~service.jobs.Jobs`."""
+    return request.app.state.jobs
 
 
 def etag_matches(request: Request, etag: str) -> bool:

@@ -18,64 +18,18 @@ planning run (single flight); the answer carries a strong ``ETag`` and ``If-None
 
 from __future__ import annotations
 
-import base64
-import hashlib
-import json
-
 from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
-from bsdf_tab import __version__
-from bsdf_tab.errors import SpecError
-from bsdf_tab.scene import check_lookup_tol, is_scene, parse_scene, plan_scene
-from bsdf_tab.io import json_default
+from bsdf_tab.scene import plan_scene  # noqa: F401  (looked up at call time: tests count planner runs)
 
-from ..cache import table_key
-from ..params import only_params
 from ..dependencies import etag_matches, read_json_body, store_of
+from ..params import only_params
+from ..scenes import parse_scene_request, parse_tol, scene_plan_bytes
 
 router = APIRouter(tags=["scenes"])
 
 _ERR = {"content": {"application/json": {}}}
-
-
-def _tol(extra: dict) -> float | None:
-    if "tol" not in extra:
-        return None
-    try:
-        tol = float(extra["tol"])
-    except ValueError:
-        raise SpecError("tol", f"must be a number, got {extra['tol'][:40]!r}") from None
-    return check_lookup_tol(tol, "tol")  # rejects nan/inf before they reach the cache key
-
-
-def scene_key(parsed: dict, tol: float | None) -> str:
-    """Cache key of a scene request: version + sha256 of the normalized scene and ``tol``."""
-    canon = json.dumps({"scene": parsed, "tol": tol}, sort_keys=True, separators=(",", ":"),
-                       default=json_default, allow_nan=False)
-    return table_key(hashlib.sha256(canon.encode()).hexdigest(), __version__)
-
-
-def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None) -> bytes:
-    """The answer of ``POST /scenes``: plan, then the JSON bytes (``checkpoint`` is the planner's log)."""
-    # candidates above the texel limit are skipped before computing; none left -> 413
-    plan = plan_scene(scene, tol, device=settings.device, workers=settings.workers, max_texels=settings.max_texels,
-                      log=checkpoint)
-    tables = {}
-    for t in plan.tables:
-        data = t.table.to_exr_bytes()
-        tables[t.file] = {"format": "exr", "encoding": "base64", "bytes": len(data),
-                          "data": base64.b64encode(data).decode("ascii")}
-    body = {"plan": plan.to_dict(), "tables": tables}
-    return json.dumps(body, default=json_default, allow_nan=False).encode()
-
-
-def parse_scene_request(scene, tol) -> tuple[dict, str]:
-    """(parsed scene, cache entry name) of a scene request; 400 naming the parameter."""
-    if not is_scene(scene):
-        raise SpecError("materials", "the body must be a scene: a JSON object with a 'materials' list")
-    parsed = parse_scene(scene)  # 400 before taking a compute slot
-    return parsed, f"{scene_key(parsed, tol)}.scene"
 
 
 _RESPONSES = {
@@ -99,7 +53,7 @@ _RESPONSES = {
 )
 async def post_scene(request: Request) -> Response:
     extra = only_params(request.query_params.multi_items(), ("tol",))
-    tol = _tol(extra)
+    tol = parse_tol(extra.get("tol"))
     scene = await read_json_body(request)
     _parsed, name = parse_scene_request(scene, tol)
     # POST answers are not stored by HTTP caches; the ETag lets a client revalidate cheaply
@@ -108,7 +62,8 @@ async def post_scene(request: Request) -> Response:
         return Response(status_code=304, headers=headers)
     store = store_of(request)
     settings = request.app.state.settings
-    payload = await store.run_scene(name, lambda checkpoint: scene_plan_bytes(scene, tol, settings, checkpoint),
+    payload = await store.run_scene(name, lambda checkpoint: scene_plan_bytes(scene, tol, settings, checkpoint,
+                                                                              planner=plan_scene),
                                     client=request.is_disconnected)
     return Response(payload, media_type="application/json", headers=headers)
 
