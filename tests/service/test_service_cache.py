@@ -197,3 +197,36 @@ def test_size_cap_evicts_through_the_app(tmp_path, counted):
         assert client.get("/healthz").json()["cache"]["evictions"] > 0
         # an evicted table is simply computed again
         assert client.get("/tables/albedo?mu=0.5,1&alpha=0.1").status_code == 200
+
+
+def test_entries_are_bound_to_their_key_and_validated(tmp_path, counted):
+    """Table B's file copied onto A's name, or a valid header over a payload that is not a table:
+    deleted, counted, recomputed; never served and never a 500 (issue 12)."""
+    from service.cache import _encode
+
+    settings = Settings(cache_dir=tmp_path, warmup=False, workers=1, memory_cache_bytes=0)
+    url_a, url_b = "/tables/albedo?mu=0.3,0.9&alpha=0.2", "/tables/albedo?mu=0.3,0.9&alpha=0.7"
+    with TestClient(create_app(settings)) as client:
+        a, b = client.get(url_a), client.get(url_b)
+        key_a, key_b = a.headers["x-bsdf-tab-key"], b.headers["x-bsdf-tab-key"]
+        assert len(counted) == 2
+        for variant in ("exr", "npz"):  # B's intact file under A's name
+            (tmp_path / f"{key_a}.{variant}").write_bytes((tmp_path / f"{key_b}.{variant}").read_bytes())
+        again = client.get(url_a)
+        assert again.status_code == 200 and again.content == a.content and len(counted) == 3
+        assert client.get("/healthz").json()["cache"]["corrupt"] == 2
+        # a correct header (checksum and name) over a payload that is not what the variant says
+        for variant, junk in (("npz", b"PK\x03\x04 not a table"), ("exr", b"not an exr"), ("json", b"[1, 2"),
+                              ("info", b"{}x")):
+            (tmp_path / f"{key_a}.{variant}").write_bytes(_encode(junk, f"{key_a}.{variant}"))
+        for fmt in ("npz", "exr", "json"):
+            r = client.get(url_a + f"&format={fmt}")
+            assert r.status_code == 200, r.text
+        assert client.get(url_a + "&format=exr").content == a.content
+        assert client.get(f"/tables/albedo/info?mu=0.3,0.9&alpha=0.2").status_code == 200
+        # an npz of another table with a correct header under A's name: the spec hash decides
+        (tmp_path / f"{key_a}.npz").write_bytes(_encode(client.get(url_b + "&format=npz").content, f"{key_a}.npz"))
+        (tmp_path / f"{key_a}.exr").unlink()
+        assert client.get(url_a).content == a.content
+        health = client.get("/healthz").json()["cache"]
+        assert health["invalid"] >= 4
