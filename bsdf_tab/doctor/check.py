@@ -22,7 +22,7 @@ import numpy as np
 
 from ..lookup import fit_axis
 from .exact import exact_at
-from .fit import NODE_TYPES, Hypothesis, encodings, search
+from .fit import NODE_TYPES, Hypothesis, encodings, even_indices, search
 from .readers import LutImage, LutReadError, read_lut, read_lut_bytes
 from .report import Report
 
@@ -36,9 +36,7 @@ _BITS = {"unorm8": 8, "unorm10": 10, "unorm16": 16}
 
 
 def _subsample(n: int) -> np.ndarray:
-    if n <= MAX_CHECK:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0, n - 1, MAX_CHECK)).astype(int))
+    return even_indices(n, MAX_CHECK)
 
 
 def _quantization(img: LutImage, data: np.ndarray) -> tuple[str, float]:

@@ -30,7 +30,8 @@ import numpy as np
 from .exact import MODELS, candidate
 from .readers import srgb_decode, srgb_encode
 
-__all__ = ["AxisHyp", "Hypothesis", "MEANINGS", "MU_SPACINGS", "NODE_TYPES", "ROUGH_MAPS", "encodings", "search"]
+__all__ = ["AxisHyp", "Hypothesis", "MEANINGS", "MU_SPACINGS", "NODE_TYPES", "ROUGH_MAPS", "encodings", "even_indices",
+           "search"]
 
 MU_SPACINGS = {
     "linear": lambda u: u,
@@ -143,11 +144,19 @@ def encodings(data: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def _model_values(dist: str, shadow: str, h_rows: AxisHyp, h_cols: AxisHyp, shape) -> dict:
+def _model_values(dist: str, shadow: str, h_rows: AxisHyp, h_cols: AxisHyp, shape, rows_idx, cols_idx) -> dict:
+    """The model on the hypothesis' nodes of the screened rows and columns, as (mu nodes x alpha nodes)."""
     H, W = shape
     if h_rows.quantity == "mu":
-        return candidate(dist, shadow).values(h_rows.values(H), h_cols.values(W))
-    return candidate(dist, shadow).values(h_cols.values(W), h_rows.values(H))
+        return candidate(dist, shadow).values(h_rows.values(H)[rows_idx], h_cols.values(W)[cols_idx])
+    return candidate(dist, shadow).values(h_cols.values(W)[cols_idx], h_rows.values(H)[rows_idx])
+
+
+def even_indices(n: int, most: int) -> np.ndarray:
+    """All of ``range(n)`` up to ``most``, else ``most`` evenly spread indices (both ends included)."""
+    if n <= most:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, most)).astype(int))
 
 
 TRIM = 0.05
@@ -163,8 +172,8 @@ def _trimmed_mean(diff: np.ndarray) -> np.ndarray:
     return np.partition(diff, k - 1, axis=1)[:, :k].mean(axis=1)
 
 
-def _score(hyp: Hypothesis, encoded: dict, active: list[int], shape) -> Hypothesis:
-    pred = hyp.predict(_model_values(hyp.distribution, hyp.shadowing, hyp.rows, hyp.cols, shape), shape)
+def _score(hyp: Hypothesis, encoded: dict, active: list[int], shape, idx) -> Hypothesis:
+    pred = hyp.predict(_model_values(hyp.distribution, hyp.shadowing, hyp.rows, hyp.cols, shape, *idx), shape)
     names = list(pred)
     stack = np.stack([pred[m] for m in names])  # (meanings, H, W)
     best = None
@@ -200,7 +209,7 @@ def _prepared(data: np.ndarray) -> dict:
     return out
 
 
-def search(data: np.ndarray, active: list[int], keep: int = 3) -> list[Hypothesis]:
+def search(data: np.ndarray, active: list[int], keep: int = 3, screen: int = 32) -> list[Hypothesis]:
     """Rank the hypotheses for ``data`` (rows, columns, channels); best first.
 
     Stages: (1) every geometry (orientation, spacings, reversal) with endpoints / centres
@@ -216,16 +225,20 @@ def search(data: np.ndarray, active: list[int], keep: int = 3) -> list[Hypothesi
         The non-constant channels (the others are not scored).
     keep : int
         Geometries carried from the coarse stage to the fine one.
+    screen : int
+        Rows and columns screened at most (evenly spread; a hypothesis' nodes are those of the
+        full axis, so a half-texel shift of a 256-node axis is still a shift).
     Returns
     -------
     list of Hypothesis
         The hypotheses of the fine stage, by score.
     """
     H, W, _ = data.shape
-    encoded = _prepared(data)
+    idx = (even_indices(H, screen), even_indices(W, screen))
+    encoded = _prepared(data[np.ix_(idx[0], idx[1])])
 
     def scored(hyps, encs=encoded):
-        return sorted((_score(h, encs, active, (H, W)) for h in hyps), key=lambda h: h.score)
+        return sorted((_score(h, encs, active, (H, W), idx) for h in hyps), key=lambda h: h.score)
 
     coarse = []
     for mu_rows in (True, False):
