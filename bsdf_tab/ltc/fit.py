@@ -37,7 +37,7 @@ import numpy as np
 from .lobe import ALPHA_FLOOR, lobe_nodes
 from .matrix import density, density_entries, entries_from_params, from_storage, l1_metric, params_from_entries
 
-__all__ = ["FIT_RULE", "METRIC_RULES", "Objective", "fit_rows", "fit_metric", "fit_table", "nelder_mead"]
+__all__ = ["FIT_RULE", "METRIC_RULES", "Objective", "fit_lobe", "fit_rows", "fit_metric", "fit_table", "nelder_mead"]
 
 #: The objective's rules, (nv, nphi, v_panels, phi_panels): a coarse one to get close, then a
 #: fine one (the metric's kink |D - T| needs it) for the restart.
@@ -115,8 +115,8 @@ class Objective:
     ``backend``: ``"warp"`` (the kernel of :mod:`bsdf_tab.ltc.kernels`) or ``"numpy"``.
     """
 
-    def __init__(self, dist, shadowing, mu, alpha, rule=FIT_RULE, backend="warp", device=None):
-        self.L, f, w = lobe_nodes(dist, shadowing, mu, alpha, *rule)
+    def __init__(self, dist, shadowing, mu, alpha, rule=FIT_RULE, backend="warp", device=None, nodes=None):
+        self.L, f, w = nodes if nodes is not None else lobe_nodes(dist, shadowing, mu, alpha, *rule)
         mass = w.sum(axis=1, keepdims=True)  # the rule's E: > 0 for every texel with alpha > 0
         self.wn = 2.0 * w / mass
         self.mass_f = np.where(f > 0.0, mass / np.where(f > 0.0, f, 1.0), 0.0)  # E / f_k
@@ -228,6 +228,19 @@ def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
         if progress is not None:
             progress(alpha.size)
     return out
+
+
+def fit_lobe(L: np.ndarray, f: np.ndarray, w: np.ndarray, start: np.ndarray, backend: str = "numpy") -> np.ndarray:
+    """Fit any lobe given by its quadrature: nodes L (B, K, 3), values f and weights w (B, K).
+
+    ``w`` are the weights of the lobe's measure (sum_k w_k g(L_k) ~ int g f dL) and the lobe must be
+    even in L_y (as every LTC of this form). Nelder-Mead in the stored entries from ``start``
+    (B, 4), then a restart; returns the fitted entries (B, 4).
+    """
+    obj = Objective(None, None, None, None, backend=backend, nodes=(L, f, w))
+    e, fe = nelder_mead(obj, np.asarray(start, dtype=np.float64), _entry_steps(start, 0.2), rtol=1e-8, atol=1e-12)
+    e, _ = nelder_mead(obj, e, _entry_steps(e, 0.05), rtol=1e-8, atol=1e-12)
+    return e
 
 
 def fit_metric(dist: str, shadowing: str, mu, alpha, minv, E=None):

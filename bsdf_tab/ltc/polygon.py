@@ -9,8 +9,8 @@ Cosines", with the polygon first clipped to the upper half-space):
 
 over the edges (a, b) of P clipped to z >= 0 (the clipped part of the boundary runs along the
 horizon, from the point where the boundary leaves the upper half-space to where it re-enters).
-Positive when the vertices wind counter-clockwise about +z (right-hand rule), as a light seen
-from below winding clockwise; take ``abs`` for a two-sided light. With an LTC, the polygon is
+Positive when (v1 - v0) x (v2 - v0) points away from the shading point (counter-clockwise about
++z for a polygon overhead); take ``abs`` for a two-sided light. With an LTC, the polygon is
 transformed by Minv first (the integral is invariant to the scale of the vertices).
 This is the same edge-streaming algorithm as :func:`bsdf_tab.model.ltc.ltc_polygon_integral`.
 """
@@ -51,7 +51,7 @@ def polygon_integral(vertices, minv=None):
     Returns
     -------
     ndarray (...)
-        The signed integral (positive for counter-clockwise winding about +z).
+        The signed integral (positive when (v1 - v0) x (v2 - v0) points away from the origin).
     """
     p = np.asarray(vertices, dtype=np.float64)
     if minv is not None:
