@@ -26,7 +26,8 @@ Error bound. The values are point evaluations in float64 (Warp kernel, the model
 bound, |f| * eps * (64 + K), eps = 2^-52, where 64 covers the arithmetic of F, G, D and the
 divisions, and K the conditioning of the half-vector: the rounded h has |delta cos theta_h| <=
 8 eps (reflection) or 8 eps (1 + eta) / |i + eta o| (transmission), amplified by
-|d ln D / d cos theta_h| (GGX 4/c + 4/(c (alpha^2 c^2 + 1 - c^2)), Beckmann 4/c + 2/(c^3 alpha^2)),
+|d ln D / d cos theta_h| (the model's ``dlnD_dcos``: GGX 4/c + 4/(c (alpha^2 c^2 + 1 - c^2)),
+Beckmann 4/c + 2/(c^3 alpha^2)),
 by the Fresnel slope 1/g near the critical angle (dielectric, g = sqrt(eta^2 - 1 + c^2)), and
 for transmission by 2x the relative error of the denominator (i.h) + eta (o.h) (= |i + eta o|)
 and by the cancellation in 1 - F near total internal reflection ((16 + amp/g) / (1 - F)).
@@ -43,7 +44,7 @@ import numpy as np
 import warp as wp
 
 from ..integrate.parallel import default_workers, run_chunks
-from ..model import BECKMANN, FRESNEL_DIELECTRIC, brdf, btdf, fresnel_dielectric
+from ..model import FRESNEL_DIELECTRIC, brdf, btdf, dlnD_dcos, fresnel_dielectric
 from ._common import Context, integrator_params
 
 __all__ = ["CHANNELS", "EPS_REL", "KINDS", "blocks", "compute", "material_alpha"]
@@ -57,16 +58,6 @@ EPS_REL = 64.0
 _EPS = 2.0**-52
 #: Texels per kernel block (the streaming memory bound is ~ 4 channels x 8 bytes x this).
 BLOCK_TEXELS = 1 << 20
-
-
-@wp.func
-def _dlnD_dc(c: wp.float64, alpha: wp.float64, dist: wp.int32):
-    """|d ln D / d cos theta_h|: the amplification of an error in cos theta_h."""
-    one = wp.float64(1.0)
-    c = wp.max(c, wp.float64(1.0e-300))
-    if dist == BECKMANN:
-        return wp.float64(4.0) / c + wp.float64(2.0) / (c * c * c * alpha * alpha)
-    return wp.float64(4.0) / c + wp.float64(4.0) / (c * (alpha * alpha * c * c + wp.max(one - c * c, wp.float64(0.0))))
 
 
 @wp.func
@@ -142,7 +133,7 @@ def _bsdf_block_kernel(
     er = wp.float64(0.0)
     if fr != wp.float64(0.0):
         h = wp.normalize(wi + wr)
-        kappa = _dlnD_dc(h[2], alpha, dist) + _fresnel_slope(wp.dot(wi, h), ftype, p0)
+        kappa = dlnD_dcos(h[2], alpha, dist) + _fresnel_slope(wp.dot(wi, h), ftype, p0)
         er = wp.abs(fr) * eps * (wp.float64(EPS_REL) + wp.float64(8.0) * kappa)
 
     ft = wp.float64(0.0)
@@ -158,7 +149,7 @@ def _bsdf_block_kernel(
             amp = wp.float64(8.0) * (one + p0) / hl
             ci = wp.dot(wi, h)
             slope = _fresnel_slope(ci, ftype, p0)
-            kappa = _dlnD_dc(h[2], alpha, dist) + slope + wp.float64(2.0)
+            kappa = dlnD_dcos(h[2], alpha, dist) + slope + wp.float64(2.0)
             # 1 - F cancels near total internal reflection: abs. error of F over 1 - F
             tr = one - fresnel_dielectric(ci, p0)
             cancel = (wp.float64(16.0) + amp * slope) / wp.max(tr, wp.float64(1.0e-300))
