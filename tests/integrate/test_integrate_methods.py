@@ -271,14 +271,3 @@ def test_tabulate_with_a_fixed_effort_method():
                            "axes": {"mu": [0.2, 1.0], "alpha": [0.0, 0.5]}})
     assert np.isfinite(t.channels["E"]).all() and (t.channels["E_err"] > 0).any()
     assert np.allclose(t.channels["E"][:, 0], 1.0)
-
-
-def test_benchmark_helpers():
-    from bsdf_tab.benchmarks.accuracy import aggregate, pareto
-
-    assert pareto([(1.0, 1e-2), (2.0, 1e-3), (3.0, 1e-2), (0.5, 1.0)]) == [3, 0, 1]
-    rows = [{"method": "m", "effort": 1, "case": c, "time_s": 1.0, "n_texels": 10, "evals_per_texel": 4.0,
-             "max_abs_err": x, "mean_abs_err": x / 10, "honesty": 1.0, "n_dishonest": 0, "invalid_values": False}
-            for c, x in (("a", 1e-3), ("b", 1e-2))]
-    (s,) = aggregate(rows)
-    assert s["max_abs_err"] == 1e-2 and s["time_per_1k_texels_s"] == pytest.approx(100.0)
