@@ -39,6 +39,10 @@ from typing import Any
 import numpy as np
 
 from .errors import SpecError
+from .integrate import METHODS as INTEGRATORS
+from .model.distribution import DISTRIBUTIONS as MODEL_DISTRIBUTIONS
+from .model.fresnel import FRESNELS as MODEL_FRESNELS
+from .model.shadowing import SHADOWINGS as MODEL_SHADOWINGS
 from .tables import CATALOG
 from .validate import check_keys, choice, integer, number, one_of
 from .axes import (  # noqa: F401  (re-exported: the spec's vocabulary)
@@ -85,18 +89,21 @@ TABLE_KINDS: dict[str, dict[str, Any]] = CATALOG
 SCALAR_PARAMS: dict[str, tuple[float, float]] = {"alpha": (0.0, 4.0), "roughness": (0.0, 2.0)}
 DEFAULT_BSDF_ALPHA = 0.5
 
-DISTRIBUTIONS = {"ggx", "beckmann"}
-SHADOWINGS = {"correlated", "separable"}
-#: Fresnel type -> its numeric parameters.
+#: Distribution and shadowing names: the model's registries.
+DISTRIBUTIONS = set(MODEL_DISTRIBUTIONS)
+SHADOWINGS = set(MODEL_SHADOWINGS)
+#: Fresnel type -> its numeric parameters (the types are the model's, :data:`bsdf_tab.model.FRESNELS`).
 FRESNEL_TYPES: dict[str, tuple[str, ...]] = {
     "one": (),
     "schlick": ("f0",),
     "dielectric": ("eta",),
     "conductor": ("eta", "k"),
 }
-#: Integration methods; other modules add theirs. A kind with its own "methods" (``bsdf``:
+if set(FRESNEL_TYPES) != set(MODEL_FRESNELS):  # a new Fresnel type of the model needs its parameters here
+    raise ImportError(f"spec.FRESNEL_TYPES {sorted(FRESNEL_TYPES)} != model FRESNELS {sorted(MODEL_FRESNELS)}")
+#: Integration methods: the integrators' registry. A kind with its own "methods" (``bsdf``:
 #: "point", exact point evaluation) accepts only those.
-METHODS = {"adaptive", "grid", "mc_cosine", "mc_dcos", "mc_vndf", "qmc_vndf", "vndf_gl"}
+METHODS = set(INTEGRATORS)
 #: Methods of fixed effort: the optional top-level key ``effort`` (samples or nodes per texel,
 #: a positive int; absent = the method's default) applies to them, not to ``adaptive``.
 EFFORT_METHODS = METHODS - {"adaptive"}
