@@ -1,19 +1,23 @@
-"""Load benchmark of the HTTP service, on loopback only.
+"""Load benchmark of the HTTP service against a minimal FastAPI app, on loopback only.
 
-Starts ``bsdf-tab serve`` on 127.0.0.1 (a free port, a fresh cache folder), then runs two
-bounded phases with N concurrent keep-alive clients:
+Starts ``bsdf-tab serve`` on 127.0.0.1 (a free port, a fresh cache folder) and, beside it, a
+minimal FastAPI app on uvicorn (the same uvicorn defaults) whose one route returns the very bytes
+of the service's cached table: the framework's ceiling on this machine. Then, with N concurrent
+keep-alive clients:
 
-- ``cached``: every client fetches the same (already computed) table, as fast as it can, for
-  ``--duration`` seconds;
+- ``cached`` / ``minimal``: for 1, 8 and 64 clients (``--clients``), interleaved in one run
+  (service, minimal, minimal, service, ... ``--repeats`` times each, ``--duration`` seconds per
+  phase), every client fetches the same computed table as fast as it can. The table reports the
+  medians over the repeats and the ratios service / minimal (requests/s, p99);
 - ``cold``: rounds of a *new* table (never computed before); all N clients ask for it at the
-  same moment, wait for everyone, and the next round starts, until ``--duration`` is up. The
-  service must run exactly one computation per round.
+  same moment, wait for everyone, and the next round starts. One computation per round.
 
-Prints a table (requests/s, p50/p99 latency, errors, computations) and writes JSON to
-``bench/out/load.json``. Stops by itself: each phase is capped at 60 s, clients at 256.
+The machine's load average before and after is recorded (shared machines: read ratios, not
+absolute figures). Prints a table and writes JSON to ``bench/out/load.json``. Stops by itself:
+each phase is capped at 60 s, clients at 256, repeats at 9.
 
-    python bench/load.py                    # 64 clients, 10 s per phase
-    python bench/load.py --clients 16 --duration 3
+    python bench/load.py                                   # 1, 8, 64 clients, 3 repeats, 3 s
+    python bench/load.py --clients 64 --repeats 1 --duration 2
 """
 
 from __future__ import annotations
@@ -37,6 +41,26 @@ HOST = "127.0.0.1"  # loopback only, never configurable
 OUT = Path(__file__).resolve().parent / "out"
 MAX_DURATION = 60.0
 MAX_CLIENTS = 256
+MAX_REPEATS = 9
+
+MINIMAL_APP = """
+import sys
+from pathlib import Path
+from fastapi import FastAPI
+from fastapi.responses import Response
+import uvicorn
+
+DATA = Path(sys.argv[2]).read_bytes()
+app = FastAPI()
+
+
+@app.get("/tables/albedo")
+async def table() -> Response:
+    return Response(DATA, media_type="image/x-exr")
+
+
+uvicorn.run(app, host="127.0.0.1", port=int(sys.argv[1]), log_level="warning")
+"""
 
 
 def free_port() -> int:
@@ -111,8 +135,9 @@ def summary(name: str, latencies: list[float], errors: int, elapsed: float, comp
     return out
 
 
-async def cached_phase(port: int, path: str, clients: int, duration: float) -> dict:
-    c0 = health(port)["computations"]
+async def cached_phase(port: int, path: str, clients: int, duration: float, name: str = "cached",
+                       counted: bool = True) -> dict:
+    c0 = health(port)["computations"] if counted else 0
     latencies, errors = [], 0
     stop = time.perf_counter() + duration
 
@@ -138,7 +163,9 @@ async def cached_phase(port: int, path: str, clients: int, duration: float) -> d
     t0 = time.perf_counter()
     await asyncio.gather(*(worker() for _ in range(clients)))
     elapsed = time.perf_counter() - t0
-    return summary("cached", latencies, errors, elapsed, health(port)["computations"] - c0)
+    result = summary(name, latencies, errors, elapsed, (health(port)["computations"] - c0) if counted else 0)
+    result["clients"] = clients
+    return result
 
 
 async def cold_phase(port: int, table_query: str, clients: int, duration: float) -> dict:
@@ -182,70 +209,133 @@ async def cold_phase(port: int, table_query: str, clients: int, duration: float)
     )
 
 
+def start(cmd: list[str], port: int) -> subprocess.Popen:
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while True:
+        if proc.poll() is not None:
+            raise RuntimeError(proc.stderr.read().decode()[-2000:])
+        try:
+            with socket.create_connection((HOST, port), timeout=1):
+                return proc
+        except OSError:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{cmd[:3]} did not start within 60 s")
+            time.sleep(0.1)
+
+
+def stop(proc: subprocess.Popen) -> None:
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def median_of(runs: list[dict]) -> dict:
+    out = dict(runs[0])
+    for k in ("requests_per_s", "p50_ms", "p99_ms", "mean_ms", "max_ms"):
+        values = [r[k] for r in runs if r.get(k) is not None]
+        out[k] = round(statistics.median(values), 2) if values else None
+    out["requests"] = sum(r["requests"] for r in runs)
+    out["errors"] = sum(r["errors"] for r in runs)
+    out["computations"] = sum(r["computations"] for r in runs)
+    out["repeats"] = len(runs)
+    out["runs_requests_per_s"] = [r["requests_per_s"] for r in runs]
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--clients", type=int, default=64)
-    ap.add_argument("--duration", type=float, default=10.0, help="seconds per phase (at most 60)")
+    ap.add_argument("--clients", type=int, nargs="+", default=[1, 8, 64])
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats per client count (medians)")
+    ap.add_argument("--duration", type=float, default=3.0, help="seconds per phase (at most 60)")
     ap.add_argument("--workers", type=int, default=None, help="server: CPU threads per computation")
     ap.add_argument("--cached", default="/tables/albedo?mu_size=32&alpha_size=32",
                     help="path of the table for the cached phase (EXR)")
     ap.add_argument("--cold", default="/tables/albedo?mu_size=16&alpha_size=16",
                     help="path of the table for the cold phase (a new tolerance per round)")
+    ap.add_argument("--no-cold", action="store_true", help="skip the cold phase")
     ap.add_argument("--out", default=str(OUT / "load.json"))
     args = ap.parse_args(argv)
-    clients = max(1, min(args.clients, MAX_CLIENTS))
+    client_counts = [max(1, min(c, MAX_CLIENTS)) for c in args.clients]
     duration = max(0.5, min(args.duration, MAX_DURATION))
+    repeats = max(1, min(args.repeats, MAX_REPEATS))
 
-    port = free_port()
+    port, minimal_port = free_port(), free_port()
     cache = tempfile.mkdtemp(prefix="bsdf-tab-load-")
     cmd = [sys.executable, "-m", "bsdf_tab.cli", "serve", "--host", HOST, "--port", str(port),
            "--cache-dir", cache, "--log-level", "warning"]
     if args.workers:
         cmd += ["--workers", str(args.workers)]
-    server = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    load_before = os.getloadavg()
+    server = minimal = None
+    results, comparison = [], []
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            if server.poll() is not None:
-                print(server.stderr.read().decode()[-2000:], file=sys.stderr)
-                return 1
-            try:
-                health(port)
-                break
-            except OSError:
-                if time.monotonic() > deadline:
-                    print("server did not start within 60 s", file=sys.stderr)
-                    return 1
-                time.sleep(0.1)
-        # the cached table: computed once before the phase starts
-        urllib.request.urlopen(f"http://{HOST}:{port}{args.cached}", timeout=120).read()
-        results = [
-            asyncio.run(cached_phase(port, args.cached, clients, duration)),
-            asyncio.run(cold_phase(port, args.cold, clients, duration)),
-        ]
+        server = start(cmd, port)
+        # the cached table: computed once before the phases start; the minimal app serves its bytes
+        data = urllib.request.urlopen(f"http://{HOST}:{port}{args.cached}", timeout=120).read()
+        body_file = Path(cache) / "minimal-body.bin"
+        body_file.write_bytes(data)
+        script = Path(cache) / "minimal_app.py"
+        script.write_text(MINIMAL_APP)
+        minimal = start([sys.executable, str(script), str(minimal_port), str(body_file)], minimal_port)
+        minimal_path = "/tables/albedo"
+        for clients in client_counts:
+            runs = {"cached": [], "minimal": []}
+            for rep in range(repeats):
+                order = ("cached", "minimal") if rep % 2 == 0 else ("minimal", "cached")
+                for which in order:
+                    if which == "cached":
+                        runs["cached"].append(asyncio.run(cached_phase(port, args.cached, clients, duration)))
+                    else:
+                        runs["minimal"].append(asyncio.run(cached_phase(
+                            minimal_port, minimal_path, clients, duration, name="minimal", counted=False)))
+            svc, ref = median_of(runs["cached"]), median_of(runs["minimal"])
+            results += [svc, ref]
+            comparison.append({
+                "clients": clients,
+                "service_rps": svc["requests_per_s"], "minimal_rps": ref["requests_per_s"],
+                "rps_ratio": round(svc["requests_per_s"] / ref["requests_per_s"], 3) if ref["requests_per_s"] else None,
+                "service_p99_ms": svc["p99_ms"], "minimal_p99_ms": ref["p99_ms"],
+                "p99_ratio": round(svc["p99_ms"] / ref["p99_ms"], 3) if ref["p99_ms"] else None,
+            })
+        stop(minimal)
+        minimal = None
+        if not args.no_cold:
+            results.append(asyncio.run(cold_phase(port, args.cold, max(client_counts), duration)))
         final_health = health(port)
     finally:
-        server.terminate()
-        try:
-            server.wait(10)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        for proc in (server, minimal):
+            if proc is not None:
+                stop(proc)
         shutil.rmtree(cache, ignore_errors=True)
+    load_after = os.getloadavg()
 
-    cols = ["phase", "requests", "errors", "requests_per_s", "p50_ms", "p99_ms", "max_ms", "computations", "rounds"]
-    print(f"bsdf-tab service load test: {clients} clients, {duration:g} s per phase, {os.cpu_count()} CPUs, loopback")
+    print(f"bsdf-tab service load test: {duration:g} s per phase, {repeats} interleaved repeats (medians), "
+          f"{os.cpu_count()} CPUs, loopback; load average {load_before[0]:.2f} before, {load_after[0]:.2f} after")
+    cols = ["phase", "clients", "requests", "errors", "requests_per_s", "p50_ms", "p99_ms", "computations", "rounds"]
     print("  ".join(f"{c:>14}" for c in cols))
     for r in results:
         print("  ".join(f"{str(r.get(c, '-')):>14}" for c in cols))
+    print("service / minimal FastAPI app (goal: requests/s >= 0.8, p99 <= 1.5x):")
+    for c in comparison:
+        print(f"  {c['clients']:>3} clients: requests/s {c['service_rps']:>8} / {c['minimal_rps']:>8} = {c['rps_ratio']}"
+              f"   p99 {c['service_p99_ms']} / {c['minimal_p99_ms']} ms = {c['p99_ratio']}")
     record = {
-        "clients": clients,
+        "clients": client_counts,
         "duration_s": duration,
+        "repeats": repeats,
         "cached_path": args.cached,
         "cold_path": args.cold,
         "cpus": os.cpu_count(),
+        "load_average_before": load_before,
+        "load_average_after": load_after,
         "python": platform.python_version(),
         "platform": platform.platform(),
         "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "comparison": comparison,
         "results": results,
         "server_health": final_health,
     }
@@ -253,7 +343,7 @@ def main(argv=None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(record, indent=2))
     print(f"wrote {out}")
-    ok = all(r["errors"] == 0 for r in results) and results[1]["one_computation_per_round"]
+    ok = all(r["errors"] == 0 for r in results) and (args.no_cold or results[-1]["one_computation_per_round"])
     return 0 if ok else 1
 
 

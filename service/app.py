@@ -19,6 +19,7 @@ from bsdf_tab.api import quiet_warp
 
 from .compute import TableStore
 from .errors import install_handlers
+from .hotpath import HotPath
 from .jobs import Jobs
 from .routes import jobs as jobs_routes
 from .routes import pages, scenes, tables
@@ -76,7 +77,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.store = store
     app.state.jobs = jobs
+    app.state.hot = None
     install_handlers(app)
+    app.add_middleware(HotPath, memory=store.memory, state=app.state)  # outermost: repeated GETs from memory
     app.include_router(tables.router)
     app.include_router(pages.router)
     app.include_router(scenes.router)
@@ -85,7 +88,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.api_route("/healthz", methods=["GET", "HEAD"], tags=["health"],
                    summary="Liveness and counters (never waits on a computation)")
     async def healthz(request: Request) -> JSONResponse:
-        return JSONResponse({**store.health(), "jobs": jobs.health()}, headers={"Cache-Control": "no-store"})
+        hot = app.state.hot.summary() if app.state.hot is not None else None
+        return JSONResponse({**store.health(), "jobs": jobs.health(), "hot_path": hot},
+                            headers={"Cache-Control": "no-store"})
 
     return app
 

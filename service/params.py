@@ -21,6 +21,7 @@ Everything here is derived from the library's tables (``TABLE_KINDS``, ``AXIS_DE
 from __future__ import annotations
 
 import math
+import re
 from typing import Any, Iterable
 
 import bsdf_tab.io as bsdf_io
@@ -101,16 +102,25 @@ def _bad(qp: str, message: str, allowed=None) -> ServiceError:
     return ServiceError(400, "invalid_parameter", message, param=qp, allowed=allowed, query_param=qp)
 
 
+_FLOAT_RE = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$|^[+-]?(?:nan|inf|infinity)$", re.I)
+
+
 def _float(text: str, qp: str) -> float:
+    t = text.strip()
+    if len(t) > 1000 or not _FLOAT_RE.match(t):  # plain ASCII decimals: no "1_0", no other scripts' digits
+        raise _bad(qp, f"must be a number, got {text[:40]!r}")
     try:
-        return float(text.strip())
+        return float(t)
     except (ValueError, OverflowError):
-        raise _bad(qp, f"must be a number, got {text!r}") from None
+        raise _bad(qp, f"must be a number, got {text[:40]!r}") from None
+
+
+_INT_RE = re.compile(r"^[+-]?[0-9]{1,12}$")
 
 
 def _int(text: str, qp: str) -> int:
     t = text.strip()
-    if not t or len(t) > 12 or not (t.isdigit() or (t[0] in "+-" and t[1:].isdigit())):
+    if not _INT_RE.match(t):  # ASCII digits only: str.isdigit() also accepts "\u00b2", which int() refuses
         raise _bad(qp, f"must be an integer, got {text[:40]!r}")
     return int(t)
 

@@ -15,6 +15,7 @@ in worker threads do not share global state.
 from __future__ import annotations
 
 import io
+import re
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -25,6 +26,8 @@ from bsdf_tab.table import Table
 from .errors import ServiceError
 
 __all__ = ["PreviewParams", "check_preview", "render_png"]
+
+_INDEX_RE = re.compile(r"^-?[0-9]{1,9}$")
 
 _LABELS = {
     "mu": "mu = cos(theta_i)",
@@ -77,7 +80,7 @@ def check_preview(axes: dict, channels: list[str], channel: str | None, slice_ax
         i = n // 2
     else:
         t = index.strip()
-        if not t.lstrip("-").isdigit() or len(t) > 12:
+        if not _INDEX_RE.match(t):  # ASCII digits only: "--1" or "²" would reach int() and fail there
             raise _bad("slice", f"must be an integer index, got {index[:40]!r}")
         i = int(t)
         if i < 0:

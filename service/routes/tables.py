@@ -39,6 +39,8 @@ _TABLE_RESPONSES = {
     503: {"description": "too many computations queued (retry later), or the computation was cancelled or ran "
                          "out of time", **_ERR},
 }
+TABLE_PATH_PARAM = {"name": "table", "in": "path", "required": True,
+                    "schema": {"type": "string", "enum": list(TABLE_KINDS)}, "description": "the table kind"}
 PREVIEW_PARAMS = [
     query_param("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
     query_param("slice", {"type": "integer"}, "3-D tables: index along slice_axis (default: the middle)"),
@@ -86,6 +88,9 @@ async def send_table(request: Request, spec: dict | None, fmt_param: str | None,
     filename = f"{prep.kind}-{prep.key.rsplit('-', 1)[-1][:12]}.{fmt}"
     response = await send_variant(request, prep, fmt, MEDIA_TYPES[fmt], vary=fmt_param is None, filename=filename)
     response.headers["X-BSDF-Tab-Axes"] = ",".join(prep.axes)
+    hot = request.app.state.hot
+    if hot is not None and response.status_code == 200:
+        hot.remember(request.scope, f"{prep.key}.{fmt}", 200, response.raw_headers)
     return response
 
 
@@ -104,9 +109,12 @@ async def get_catalog(request: Request) -> JSONResponse:
         "Format: `format=exr|npz|npy|json` or an Accept header (EXR by default)."
     ),
     responses=_TABLE_RESPONSES,
-    openapi_extra={"parameters": query_parameters([FORMAT_PARAM])},
+    openapi_extra={"parameters": [TABLE_PATH_PARAM] + query_parameters([FORMAT_PARAM])},
 )
-async def get_table(table: str, request: Request) -> Response:
+async def get_table(request: Request) -> Response:
+    # the path parameter is read here, not declared: FastAPI's per-request dependency solving
+    # was a third of the hot path (bench/load.py); the OpenAPI document declares it above
+    table = request.path_params["table"]
     _check_table(table)
     items = tuple(request.query_params.multi_items())
     prep, extra = store_of(request).prepare_query(
