@@ -161,7 +161,8 @@ def test_fuzz_get_operations(path):
         check(r)
 
     run()
-    assert statuses.count(200) >= 2, sorted(set(statuses))  # the fuzz does reach computations
+    if "{table}" in path:  # keyed paths (/tables/by-key/{key}) have their own fuzz below
+        assert statuses.count(200) >= 2, sorted(set(statuses))  # the fuzz does reach computations
 
 
 def _spec_like():
@@ -286,3 +287,52 @@ def test_fuzz_post_scenes_reached_the_planner():
     if not SCENE_STATUSES:
         test_fuzz_post_scenes()
     assert {200, 413} & SCENE_STATUSES, SCENE_STATUSES  # valid scenes were planned, not only rejected
+
+
+# ------------------------------------------------------------------ jobs and keyed results (issue 12)
+
+JOB_STATUSES: set = set()
+
+
+@settings(FUZZ, max_examples=max(EXAMPLES // 2, 10))
+@given(
+    body=st.one_of(
+        st.just({"spec": {"table": "albedo", "axes": {"mu": [0.5], "alpha": [0.25, 0.5]}}}),  # valid: runs
+        st.just({"scene": TINY_SCENE, "tol": 0.05}),
+        _spec_like().map(lambda d: {"spec": d}),
+        _scene_like().map(lambda d: {"scene": d}),
+        st.tuples(st.just(TINY_SCENE), st.one_of(numbers, junk, json_values)).map(lambda t: {"scene": t[0], "tol": t[1]}),
+        st.dictionaries(st.sampled_from(["spec", "scene", "tol", "x"]), json_values, max_size=3),
+        json_values,
+    ).map(lambda v: json.dumps(v).encode()) | st.binary(max_size=64),
+    query=st.one_of(st.none(), st.just({"x": "1"})),
+)
+def test_fuzz_post_jobs(body, query):
+    r = client().post("/jobs", content=body, params=query, headers={"Content-Type": "application/json"})
+    JOB_STATUSES.add(r.status_code)
+    check(r)
+    if r.status_code == 202:
+        job = r.json()
+        assert r.headers["location"] == f"/jobs/{job['id']}"
+        check(client().get(f"/jobs/{job['id']}"))
+
+
+ids = st.one_of(st.text(max_size=70), st.sampled_from(["0" * 32, "f" * 32, "v0-" + "0" * 64, "x.scene", "%2e%2e", "a" * 300]),
+                st.binary(max_size=40).map(lambda b: b.hex()))
+
+
+@FUZZ
+@given(ident=ids, method=st.sampled_from(["get", "delete"]),
+       path=st.sampled_from(["/jobs/{}", "/tables/by-key/{}", "/scenes/by-key/{}"]))
+def test_fuzz_job_ids_and_keys(ident, method, path):
+    from urllib.parse import quote
+
+    url = path.format(quote(ident, safe=""))
+    r = getattr(client(), method)(url)
+    check(r)
+
+
+def test_fuzz_post_jobs_reached_the_runner():
+    if not JOB_STATUSES:
+        test_fuzz_post_jobs()
+    assert 202 in JOB_STATUSES and 400 in JOB_STATUSES, JOB_STATUSES
