@@ -14,14 +14,17 @@ def _configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="CPU threads per computation (default: all)")
     parser.add_argument("--max-concurrent", type=int, default=None, help="computations at a time (default 1)")
     parser.add_argument("--max-texels", type=int, default=None, help="largest table served (default 262144)")
+    parser.add_argument("--header-timeout", type=float, default=None,
+                        help="seconds to receive a request's headers (default 10, or BSDF_TAB_HEADER_TIMEOUT)")
+    parser.add_argument("--max-cost-seconds", type=float, default=None,
+                        help="predicted core-seconds of a synchronous request (default 60; more: 413, use a job)")
     parser.add_argument("--no-warmup", action="store_true", help="do not load the Warp kernels at start-up")
     parser.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
 
 
 def _serve(args: argparse.Namespace) -> int:
-    import uvicorn
-
     from .app import create_app
+    from .server import run
     from .settings import Settings
 
     overrides = {
@@ -31,6 +34,8 @@ def _serve(args: argparse.Namespace) -> int:
         "workers": args.workers,
         "max_concurrent": args.max_concurrent,
         "max_texels": args.max_texels,
+        "header_timeout": args.header_timeout,
+        "max_cost_seconds": args.max_cost_seconds,
     }
     if args.no_warmup:
         overrides["warmup"] = False
@@ -45,7 +50,7 @@ def _serve(args: argparse.Namespace) -> int:
         app.state.store.cache.check_folder()  # a file or unwritable folder: one line, exit 2, before listening
     except ValueError as exc:
         raise ValueError(f"--cache-dir: {exc}") from None
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level=args.log_level)
+    run(app, settings, log_level=args.log_level)
     return 0
 
 

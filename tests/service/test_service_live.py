@@ -41,7 +41,8 @@ def server(tmp_path_factory):
     port = _free_port()
     cmd = [
         sys.executable, "-m", "bsdf_tab.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
-        "--cache-dir", str(cache), "--workers", "2", "--max-texels", "4096", "--no-warmup", "--log-level", "warning",
+        "--cache-dir", str(cache), "--workers", "2", "--max-texels", "4096", "--no-warmup", "--log-level", "info",
+        "--header-timeout", "1.5",
     ]
     log = open(cache / "server.log", "wb")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
@@ -82,6 +83,47 @@ def test_fetch_table_over_a_socket(server):
     assert status == 400 and json.loads(body)["error"]["param"] == "axes.alpha"
     health = json.loads(_get(server, "/healthz")[2])
     assert health["computations"] == 1
+
+
+def test_header_read_timeout_closes_a_slow_client(server):
+    sock = socket.create_connection(("127.0.0.1", server), timeout=10)
+    try:
+        sock.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\nX-Slow: ")  # headers never finished
+        t0 = time.monotonic()
+        assert sock.recv(100) == b""  # closed by the server, no answer
+        assert 1.0 < time.monotonic() - t0 < 6
+    finally:
+        sock.close()
+    # a well-behaved keep-alive client is not affected, also after an idle pause shorter than the timeout
+    conn = http.client.HTTPConnection("127.0.0.1", server, timeout=10)
+    try:
+        for _ in range(2):
+            conn.request("GET", "/healthz")
+            assert conn.getresponse().read()
+            time.sleep(0.5)
+        conn.request("HEAD", "/healthz")
+        r = conn.getresponse()
+        assert r.status == 200 and r.read() == b""
+    finally:
+        conn.close()
+
+
+def test_a_client_gone_mid_body_is_one_info_line(server, tmp_path_factory):
+    log_path = [p for p in tmp_path_factory.getbasetemp().glob("live-cache*/server.log")][0]
+    sock = socket.create_connection(("127.0.0.1", server), timeout=10)
+    sock.sendall(b"POST /tables HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                 b"Content-Length: 500\r\n\r\n{\"table\": ")
+    time.sleep(0.5)
+    sock.close()  # gone before the body was complete
+    deadline = time.monotonic() + 5
+    text = ""
+    while time.monotonic() < deadline:
+        text = log_path.read_text(errors="replace")
+        if "client gone" in text:
+            break
+        time.sleep(0.1)
+    assert "client gone: POST /tables" in text, text[-2000:]
+    assert "Traceback" not in text and "internal error" not in text
 
 
 def _browser() -> str | None:
