@@ -33,7 +33,7 @@ from ..errors import ServiceError, from_spec_error, query_param_for
 from ..page_template import PAGE
 from ..params import FRESNEL_PARAMS, spec_from_query
 from ..preview import check_preview
-from ..dependencies import store_of
+from ..dependencies import jobs_of, store_of
 
 router = APIRouter(tags=["pages"])
 
@@ -172,13 +172,46 @@ def _error_box(exc: ServiceError) -> str:
     )
 
 
-@router.get("/", response_class=HTMLResponse, summary="HTML page: catalog, form, preview")
+_HTML_ERR = {"content": {"text/html": {}}}
+_PAGE_RESPONSES = {
+    200: {"description": "the page", "content": {"text/html": {}}},
+    400: {"description": "invalid parameter: the page shows the error box naming it", **_HTML_ERR},
+    404: {"description": "unknown table or job: the page shows the error box", **_HTML_ERR},
+    413: {"description": "too many texels or too costly (the page says so and links to jobs)", **_HTML_ERR},
+    503: {"description": "the compute queue is full, or the computation was cancelled / ran out of time", **_HTML_ERR},
+}
+
+
+def _job_box(job: dict) -> str:
+    done, total = job["progress"]["done"], job["progress"]["total"]
+    pct = f"{100.0 * done / total:.0f}%" if total else "-"
+    eta = "" if job["eta_seconds"] is None else f", about {job['eta_seconds']:g} s left"
+    result = (f'<p>result: <a href="{escape(job["result"])}">{escape(job["result"])}</a></p>'
+              if job.get("result") else "")
+    error = f"<p>error: {escape(job['error'])}</p>" if job.get("error") else ""
+    return (f'<section class="result" id="job" data-status="{escape(job["status"])}"><div>'
+            f'<h2>job {escape(job["id"])}: {escape(job["status"])}</h2>'
+            f'<p><progress id="job-progress" max="{max(total, 1)}" value="{done}"></progress> '
+            f'{done} / {total} ({pct}){escape(eta)}</p>{result}{error}</div></section>')
+
+
+@router.get("/", response_class=HTMLResponse, summary="HTML page: catalog, form, preview; ?job=ID shows a job's progress",
+            responses=_PAGE_RESPONSES)
 async def index(request: Request) -> HTMLResponse:
     items = [(k, v) for k, v in request.query_params.multi_items() if v.strip() != ""]
     q = dict(items)
     kind = q.get("table", DEFAULT_TABLE)
     status = 200
-    if kind not in TABLE_KINDS:
+    if "job" in q:  # a job's progress, refreshed by the browser until it is finished
+        try:
+            job = await jobs_of(request).view(q["job"])
+            result = _job_box(job)
+            if job["status"] in ("queued", "running"):
+                result = '<meta http-equiv="refresh" content="2">' + result
+        except ServiceError as exc:
+            result, status = _error_box(exc), exc.status
+        kind = DEFAULT_TABLE
+    elif kind not in TABLE_KINDS:
         result = _error_box(ServiceError(404, "unknown_table", f"unknown table {kind[:60]!r}", param="table",
                                          allowed=list(TABLE_KINDS)))
         kind, status = DEFAULT_TABLE, 404

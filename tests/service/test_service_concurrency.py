@@ -138,3 +138,40 @@ def test_a_failed_computation_reaches_every_waiter_then_is_retried(tmp_path, mon
     assert [r.status_code for r in rs] == [400] * 6
     assert rs[0].json()["error"]["param"] == "axes.eta"
     assert len(calls) == 2 and again.status_code == 400
+
+
+def test_scenes_go_through_the_same_door(tmp_path, monkeypatch):
+    """POST /scenes: the same queue limit, 503 + Retry-After, slots and counters as tables (issue 12)."""
+    import service.routes.scenes as scenes_route
+
+    real = scenes_route.plan_scene
+    state = {"started": threading.Event(), "release": threading.Event(), "calls": 0}
+
+    def slow_plan(*args, **kwargs):
+        state["calls"] += 1
+        state["started"].set()
+        state["release"].wait(10)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(scenes_route, "plan_scene", slow_plan)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
+    scene = {"tolerance": 0.05, "materials": [{"type": "conductor", "eta": 2.5, "k": 3.0, "alpha": 0.3}]}
+
+    async def main():
+        async with _client(app) as c:
+            first = asyncio.create_task(c.post("/scenes", json=scene))
+            while not state["started"].is_set():
+                await asyncio.sleep(0.01)
+            health = (await c.get("/healthz")).json()
+            others = [await c.post("/scenes", params={"tol": str(0.05 + i / 1000)}, json=scene) for i in range(1, 4)]
+            table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            state["release"].set()
+            return health, others, table, await first, (await c.get("/healthz")).json()
+
+    health, others, table, first, after = asyncio.run(main())
+    assert health["computing"] == 1 and health["in_flight"] == 1 and health["queued"] == 0
+    assert health["running"][0]["name"].endswith(".scene")
+    assert all(r.status_code == 503 and r.headers["retry-after"] for r in others), [r.status_code for r in others]
+    assert table.status_code == 503  # one door for tables and scenes
+    assert first.status_code == 200 and state["calls"] == 1
+    assert after["computations"] == 1 and after["scenes"] == 1 and after["busy"] == 4 and after["computing"] == 0

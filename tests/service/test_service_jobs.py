@@ -251,3 +251,20 @@ def test_bad_job_ids_and_raw_bodies(tmp_path):
         assert client.get("/tables/by-key/v0-xyz").status_code == 404
         assert client.get("/scenes/by-key/x.scene").status_code == 404
         assert json.loads(client.get("/openapi.json").text)["paths"]["/jobs/{id}"]["delete"]
+
+
+def test_page_shows_a_job_and_openapi_lists_the_page_errors(tmp_path):
+    with TestClient(create_app(_settings(tmp_path, max_cost_seconds=30))) as client:
+        job = client.post("/jobs", json={"spec": SPEC}).json()
+        done = _wait(client, job["id"])
+        page = client.get(f"/?job={job['id']}")
+        assert page.status_code == 200 and 'id="job"' in page.text and 'data-status="done"' in page.text
+        assert done["result"] in page.text and 'id="job-progress"' in page.text
+        bad = client.get("/?job=nope")
+        assert bad.status_code == 404 and 'id="error"' in bad.text
+        responses = client.get("/openapi.json").json()["paths"]["/"]["get"]["responses"]
+        assert {"400", "404", "413", "503"} <= set(responses)
+        # a too costly table on the page: the error box says why and what to do
+        costly = client.get(f"/?table=albedo&{COSTLY}")
+        assert costly.status_code == 413 and "POST /jobs" in costly.text
+        assert client.get("/healthz").json()["computations"] == 1  # the job's only
