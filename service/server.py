@@ -15,7 +15,7 @@ import logging
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-__all__ = ["header_timeout_protocol", "run"]
+__all__ = ["HeaderTimeoutProtocol", "header_timeout_protocol", "run"]
 
 log = logging.getLogger("bsdf_tab.service")
 
@@ -74,3 +74,18 @@ def run(app, settings, log_level: str = "info") -> None:
     log.setLevel(log_level.upper())
     uvicorn.run(app, host=settings.host, port=settings.port, log_level=log_level,
                 http=header_timeout_protocol(settings.header_timeout))
+
+
+def _env_timeout() -> float:
+    import os
+
+    try:
+        value = float(os.environ.get("BSDF_TAB_HEADER_TIMEOUT", "10"))
+    except ValueError:
+        value = 10.0  # a malformed variable must not stop the server; Settings() reports it
+    return value if value > 0 else 10.0
+
+
+#: For ``uvicorn service.app:app --http service.server:HeaderTimeoutProtocol`` (``--workers N``):
+#: the timeout from ``BSDF_TAB_HEADER_TIMEOUT`` (default 10 s).
+HeaderTimeoutProtocol = header_timeout_protocol(_env_timeout())
