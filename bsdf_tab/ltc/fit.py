@@ -18,6 +18,8 @@ texel (tilt = the lobe's mean direction, isotropic width from a scan of nine sca
 neighbour cannot derail a row. Everything is fixed-order float64: the same inputs give the same
 table bit for bit.
 
+Normal incidence (mu = 1): the lobe is rotationally symmetric; the fit there is the 1-D
+search over Minv / Minv_11 = diag(1, 1, m) (golden section), exactly isotropic.
 Near-mirror: the lobe's coordinates are scale-free (the width enters as ln m11), so small alpha
 needs no special case down to :data:`~bsdf_tab.ltc.lobe.ALPHA_FLOOR`; below it the shape is that
 of the floor (a Dirac lobe has no density), and the metric's error channel says so (2).
@@ -28,6 +30,7 @@ clipping removes in shading) against the shape above it.
 
 from __future__ import annotations
 
+import math
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
@@ -197,6 +200,39 @@ def _neighbour_pass(obj: Objective, e: np.ndarray, fe: np.ndarray, sweeps: int =
     return e
 
 
+def _isotropic(obj: Objective, e: np.ndarray, iters: int = 60) -> np.ndarray:
+    """Normal incidence: the lobe is rotationally symmetric, so Minv / Minv_11 = diag(1, 1, m).
+
+    Golden-section search on ln m over [ln m0 - 2, ln m0 + 2] (m0 from the 4-D fit), batched.
+    """
+    B = e.shape[0]
+    idx = np.arange(B)
+    m0 = np.log(np.maximum(np.abs(e[:, 3]), 1e-12))  # the 4-D fit's width, > 0
+    lo, hi = m0 - 2.0, m0 + 2.0
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def f(t):
+        x = np.zeros((B, 4))
+        x[:, 0] = 1.0
+        x[:, 3] = np.exp(t)
+        return obj(idx, x)
+
+    a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+    fa, fb = f(a), f(b)
+    for _ in range(iters):
+        left = fa < fb
+        hi = np.where(left, b, hi)
+        lo = np.where(left, lo, a)
+        na = np.where(left, hi - g * (hi - lo), b)
+        nb = np.where(left, a, lo + g * (hi - lo))
+        fna, fnb = np.where(left, f(na), fb), np.where(left, fa, f(nb))
+        a, b, fa, fb = na, nb, fna, fnb
+    out = np.zeros((B, 4))
+    out[:, 0] = 1.0
+    out[:, 3] = np.exp(0.5 * (lo + hi))
+    return out
+
+
 def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
              progress: Callable[[int], None] | None = None, backend: str = "warp", device=None) -> np.ndarray:
     """Fitted stored entries (len(mu), len(alpha), 4), rows from the largest mu to the smallest.
@@ -223,6 +259,8 @@ def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
         e = entries_from_params(x)
         e, fe = nelder_mead(fine, e, _entry_steps(e, 0.05), rtol=1e-5, atol=1e-7)
         e = _neighbour_pass(fine, e, fe)
+        if mu[i] >= 1.0:
+            e = _isotropic(fine, e)
         out[i] = e
         prev = params_from_entries(e)
         if progress is not None:
