@@ -10,7 +10,8 @@ divide the wall time by about ``min(workers, texels)``). The model is
   mu-average's first round of :data:`AVG_PANELS` panels x 15 Gauss-Kronrod nodes (one more
   panel per critical-angle break, eta < 1), refined by panel bisection up to
   :data:`AVG_MAX_ROUNDS` rounds; ``kulla_conty``: its grid plus the alpha average; ``bsdf``:
-  one point evaluation per texel.
+  one point evaluation per texel; ``ltc``: its grid plus the host fit per texel
+  (:data:`KIND_HOST_SECONDS`).
 - **seconds per integration**: fixed-effort methods ``overhead + per_node x nodes`` (nodes =
   ``effort``, or the method's default effort; ``grid`` integrates both hemispheres for
   dielectric tables, ``vndf_gl`` adds its half-order check rule); ``adaptive``
@@ -72,7 +73,11 @@ KIND_MODE = {
     "dielectric": "dielectric",
     "dielectric_avg": "dielectric",
     "bsdf": "point",
+    "ltc": "dfg",  # E and the Schlick amplitude through the grid, then the per-texel fit
 }
+#: Kinds with host work besides their integrals: (fixed core-seconds, core-seconds per texel)
+#: (measured: ltc 4 x 4 0.40 s, 8 x 8 0.92 s: the L1 fits of the LTC matrices).
+KIND_HOST_SECONDS = {"ltc": (0.15, 0.011)}
 #: Kinds that average over mu (one integration per node of the mu-average's panels).
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
@@ -276,8 +281,10 @@ def estimate(spec: dict | str, *, scale: float = 1.0) -> Cost:
         grid_bound, avg_bound = per_grid, per_avg
     avg_integrations = points * per_point * refine
     integrations = int(grid + avg_integrations)
-    seconds = (grid * per_grid + avg_integrations * per_avg) * scale
-    bound = (grid * grid_bound + points * cap_per_point * avg_bound) * scale
+    fixed, per_texel = KIND_HOST_SECONDS.get(kind, (0.0, 0.0))
+    host = fixed + per_texel * texels
+    seconds = (grid * per_grid + avg_integrations * per_avg + host) * scale
+    bound = (grid * grid_bound + points * cap_per_point * avg_bound + host) * scale
     per = seconds / integrations if integrations else 0.0
     return Cost(seconds=seconds, bound_seconds=max(bound, seconds), texels=texels, integrations=integrations,
                 per_integration=per, method=method, params=drivers)
@@ -346,6 +353,7 @@ SWEEP = (
      "method": "vndf_gl", "effort": 4096},
     {"table": "dielectric", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}, "eta": {"size": 4}}, "tolerance": 1e-5},
     {"table": "albedo_avg", "axes": {"alpha": {"size": 4}}},
+    {"table": "ltc", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}},
 )
 
 
