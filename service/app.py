@@ -85,8 +85,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(scenes.router)
     app.include_router(jobs_routes.router)
 
-    @app.api_route("/healthz", methods=["GET", "HEAD"], tags=["health"],
-                   summary="Liveness and counters (never waits on a computation)")
+    @app.head("/healthz", include_in_schema=False)  # load balancers probe with HEAD
+    @app.get("/healthz", tags=["health"], summary="Liveness and counters (never waits on a computation)")
     async def healthz(request: Request) -> JSONResponse:
         hot = app.state.hot.summary() if app.state.hot is not None else None
         return JSONResponse({**store.health(), "jobs": jobs.health(), "hot_path": hot},
