@@ -367,12 +367,20 @@ def catalog(settings) -> dict:
             "max_body_bytes": settings.max_body_bytes,
             "max_concurrent_computations": settings.max_concurrent,
             "max_queued_computations": settings.max_queued,
+            "max_cost_seconds": settings.max_cost_seconds,
+            "max_job_cost_seconds": settings.max_job_cost_seconds,
+            "max_compute_seconds": settings.max_compute_seconds,
+            "job_max_seconds": settings.job_max_seconds,
         },
         "endpoints": {
             "GET /tables/{table}": "a table by query parameters",
             "POST /tables": "a table by a spec JSON body",
             "GET /tables/{table}/info": "metadata: spec, conventions, method, max error",
             "GET /tables/{table}/preview.png": "heatmap of one channel (channel=, slice=, slice_axis=)",
+            "POST /jobs": "big work in the background: {\"spec\": ...} or {\"scene\": ..., \"tol\": x}",
+            "GET /jobs/{id}": "status, progress, eta_seconds, result URL, error",
+            "DELETE /jobs/{id}": "cancel a job",
+            "GET /tables/by-key/{key}": "a computed table by its cache key (a job's result)",
         },
     }
 
