@@ -333,3 +333,14 @@ def test_get_takes_effort_for_fixed_effort_methods(client):
     err(client.get("/tables/albedo?mu=1&alpha=0.5&effort=64"), 400, "effort", "effort")  # adaptive: no effort
     err(client.get("/tables/albedo?mu=1&alpha=0.5&method=vndf_gl&effort=abc"), 400, "effort", "effort")
     err(client.get("/tables/albedo?mu=1&alpha=0.5&method=vndf_gl&effort=2"), 400, "effort", "effort")
+
+
+@pytest.mark.parametrize("value", ["--1", "+-1", "\u00b2", "1_0", "\u0661", "0x1", " 1 1"])
+def test_strict_slice_and_integer_parsing(client, value):
+    """Issue 12: slice=--1 was a 500; every integer parameter takes plain ASCII digits only."""
+    r = client.get("/tables/dielectric/preview.png", params={"mu": "0.5", "alpha": "0.3", "eta": "1.2,1.5", "slice": value})
+    err(r, 400, param="slice")
+    page = client.get("/", params={"table": "dielectric", "mu": "0.5", "alpha": "0.3", "eta": "1.2,1.5", "slice": value})
+    assert page.status_code == 400 and 'id="error"' in page.text
+    err(client.get("/tables/albedo", params={"mu_size": value}), 400, query_param="mu_size")
+    err(client.get("/tables/albedo", params={"mu": value}), 400, query_param="mu")
