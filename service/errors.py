@@ -107,7 +107,7 @@ def cost_error(exc: CostLimitError, axes=()) -> ServiceError:
     allowed = {"max_cost_seconds": exc.limit, "jobs": "POST /jobs"}
     if cost is not None:
         allowed.update(cost.to_dict())
-    qp = _cost_query_params(list(cost.params) if cost else ["axes"], list(axes))
+    qp = _cost_query_params(list(cost.params), list(axes)) if cost else exc.param
     return ServiceError(413, "too_costly", exc.message, param=exc.param, allowed=allowed, query_param=qp)
 
 

@@ -291,7 +291,8 @@ class Jobs:
         else:
             key = prepared
             settings = self.settings
-            work = store.run_scene(prepared, lambda cp: scene_plan_bytes(request["scene"], request.get("tol"), settings, cp),
+            work = store.run_scene(prepared, lambda cp: scene_plan_bytes(request["scene"], request.get("tol"), settings, cp,
+                                                                          max_cost=settings.max_job_cost_seconds),
                                    limit_seconds=self.settings.job_max_seconds)
         task = asyncio.ensure_future(work)
         try:

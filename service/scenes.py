@@ -7,13 +7,20 @@ import hashlib
 import json
 
 from bsdf_tab import __version__
-from bsdf_tab.errors import SpecError
+from bsdf_tab.cost import CostLimitError, estimate
+from bsdf_tab.errors import SpecError, TexelLimitError
 from bsdf_tab.io import json_default
 from bsdf_tab.scene import check_lookup_tol, is_scene, parse_scene, plan_scene
+from bsdf_tab.scene.plan import INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL
 
 from .cache import table_key
 
-__all__ = ["parse_scene_request", "parse_tol", "scene_key", "scene_plan_bytes"]
+__all__ = ["parse_scene_request", "parse_tol", "scene_key", "scene_plan_bytes", "scene_texel_cap"]
+
+#: The planner's cost for a table of N texels, in units of N texel integrations: its check grid
+#: (every cell midpoint added: up to 2^3 = 8 x the texels of a 3-D candidate), and about as
+#: much again for the smaller candidates tried before it.
+CHECK_FACTOR = 16.0
 
 
 def parse_tol(text, param: str = "tol") -> float | None:
@@ -36,14 +43,42 @@ def scene_key(parsed: dict, tol: float | None) -> str:
     return table_key(hashlib.sha256(canon.encode()).hexdigest(), __version__)
 
 
-def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None) -> bytes:
+def scene_texel_cap(lookup_tol: float, max_cost: float, scale: float = 1.0) -> int:
+    """The largest table (texels) whose planning the cost model predicts within ``max_cost`` core-seconds.
+
+    Priced as the dearest family (dielectric, adaptive) at the planner's integration tolerance
+    (``lookup_tol / INTEGRATION_DIVISOR``), times :data:`CHECK_FACTOR`.
+    """
+    itol = max(lookup_tol / INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL)
+    one = estimate({"table": "dielectric", "tolerance": itol, "axes": {"mu": [0.5], "alpha": [0.5], "eta": [1.5]}},
+                   scale=scale)
+    return max(1, int(max_cost / (CHECK_FACTOR * one.per_integration)))
+
+
+def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, max_cost: float | None = None) -> bytes:
     """The answer of ``POST /scenes``: plan, then the JSON bytes (``checkpoint`` is the planner's log).
 
-    ``planner`` defaults to :func:`bsdf_tab.scene.plan_scene` (tests count its calls).
+    ``planner`` defaults to :func:`bsdf_tab.scene.plan_scene` (tests count its calls). The cost
+    limit (``max_cost``, default ``settings.max_cost_seconds``) becomes a texel cap for the
+    planner (:func:`scene_texel_cap`): candidates above it are skipped before they are computed,
+    and a scene that needs larger tables is a :class:`~bsdf_tab.cost.CostLimitError` naming ``tol``.
     """
-    # candidates above the texel limit are skipped before computing; none left -> 413
-    plan = (planner or plan_scene)(scene, tol, device=settings.device, workers=settings.workers, max_texels=settings.max_texels,
-                      log=checkpoint)
+    limit = settings.max_cost_seconds if max_cost is None else max_cost
+    parsed = parse_scene(scene)
+    lookup_tol = tol if tol is not None else parsed.get("lookup_tol")
+    cap = settings.max_texels
+    if lookup_tol is not None:
+        cap = min(cap, scene_texel_cap(float(lookup_tol), limit, settings.cost_scale))
+    # candidates above the cap are skipped before computing; none left -> 413
+    try:
+        plan = (planner or plan_scene)(scene, tol, device=settings.device, workers=settings.workers, max_texels=cap,
+                                       log=checkpoint)
+    except TexelLimitError as exc:
+        if cap >= settings.max_texels:
+            raise  # the service's texel limit itself
+        raise CostLimitError("tol", f"at this lookup tolerance the scene needs tables whose planning is predicted to "
+                             f"cost more than {limit:g} core-seconds (tables above {cap} texels); loosen tol, or "
+                             "POST /jobs for big work", None, limit) from None
     tables = {}
     for t in plan.tables:
         data = t.table.to_exr_bytes()

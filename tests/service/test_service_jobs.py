@@ -268,3 +268,17 @@ def test_page_shows_a_job_and_openapi_lists_the_page_errors(tmp_path):
         costly = client.get(f"/?table=albedo&{COSTLY}")
         assert costly.status_code == 413 and "POST /jobs" in costly.text
         assert client.get("/healthz").json()["computations"] == 1  # the job's only
+
+
+def test_the_cost_model_guards_scenes(tmp_path):
+    glass = {"tolerance": 1e-3, "materials": [{"name": "glass", "type": "dielectric", "eta": {"range": [1.3, 1.7]},
+                                               "alpha": {"range": [0.05, 0.8]}}]}
+    # a cap of 3 texels: even the planner's smallest candidate (2 x 2 x 2) is priced out before computing
+    with TestClient(create_app(_settings(tmp_path, max_cost_seconds=0.05))) as client:
+        r = client.post("/scenes", json=glass)
+        assert r.status_code == 413, r.text[:300]
+        e = r.json()["error"]
+        assert e["code"] == "too_costly" and e["param"] == "tol" and e["query_param"] == "tol"
+        assert "POST /jobs" in e["message"] and e["allowed"]["max_cost_seconds"] == 0.05
+        h = client.get("/healthz").json()
+        assert h["computing"] == 0 and h["busy"] == 0 and h["compute_seconds"] < 1
