@@ -21,13 +21,12 @@ lookup error for a scene file and, with ``--precision auto`` and any other input
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from .. import io
 from ..io.storage import ENCODINGS, FORMAT_STORAGE, choose_encoding, storage_report
-from ..spec import texel_count
-from .common import PROG, CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
+from .common import CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
+from .many import Job, add_cluster_arguments, bake_library, bake_specs, exr_job, is_library_file, scheduler_of
 from .plan import bake_scene, is_scene_file
 
 STORAGE_ENCODINGS = tuple(ENCODINGS)
@@ -67,17 +66,24 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="with --precision auto: max error of the stored values (integration + storage)")
     parser.add_argument("--emit", action="append", default=None, metavar="LANG[,LANG]",
                         help=f"also write lookup code beside the table: {', '.join(EMIT_LANGS)} (repeat or comma-separate)")
+    add_cluster_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Bake one spec file, or the default set when no spec is given, or a preset, or a scene."""
     check_workers(args)
     args.emit_langs = _emit_langs(args.emit)
+    if args.spec and args.preset is None and is_library_file(args.spec):
+        if args.format is not None or args.precision is not None or args.emit_langs or args.tol is not None:
+            raise CliError("--format, --precision, --emit and --tol do not apply to a material library (EXR tables)")
+        return bake_library(args)
     if args.spec and args.preset is None and is_scene_file(args.spec):
         if args.format is not None:
             raise CliError("--format: a scene is baked as EXR tables and manifest.json")
         if args.precision is not None or args.store_tol is not None or args.emit_langs:
             raise CliError("--precision, --store-tol and --emit apply to a spec file or --preset, not a scene")
+        if scheduler_of(args) is not None or args.resume:
+            raise CliError("--scheduler and --resume apply to a spec file, --preset, a library or the default set")
         return bake_scene(args)
     _check_storage_options(args)
     if args.preset is not None:
@@ -100,8 +106,6 @@ def _output_format(out: Path, fmt: str | None) -> str:
 
 
 def _bake_one(args: argparse.Namespace) -> int:
-    from .. import api
-
     spec_path = Path(args.spec)
     spec = load_spec_file(spec_path)
     ending = io.get_format(args.format).suffixes[0] if args.format else ".exr"
@@ -111,16 +115,39 @@ def _bake_one(args: argparse.Namespace) -> int:
     fmt = _output_format(out, args.format)
     if not out.parent.is_dir():
         raise CliError(f"output folder does not exist: {out.parent}")
+    if args.resume and out.exists():
+        print(f"{out}: exists, skipped (--resume)")
+        return 0
     quiet_warp(args)
+    scheduler = scheduler_of(args)
+    client, owned = (None, False)
+    if scheduler is not None:
+        from .many import connect_cluster
+
+        client, owned = connect_cluster(scheduler)
+    try:
+        return _compute_and_write(args, spec, out, fmt, client)
+    finally:
+        if owned:
+            from ..cluster import close
+
+            close(client)
+
+
+def _compute_and_write(args: argparse.Namespace, spec: dict, out: Path, fmt: str, client) -> int:
+    from .. import api
+
     if io.can_stream(fmt) and api.streams(spec):
         # directional tables can be large: computed and written in blocks (bounded memory)
         if args.precision is not None or args.emit_langs:
             raise CliError(f"--precision and --emit do not apply to a streamed {fmt} bake (a directional table)")
-        blocks = api.iter_blocks(spec, device=args.device, workers=args.workers, progress=not args.quiet)
+        blocks = api.iter_blocks(spec, device=args.device, workers=args.workers, progress=not args.quiet,
+                                 scheduler=client)
         table = io.write_stream(blocks, out, fmt)
         print(summary(out, table))
         return 0
-    table = api.tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet)
+    table = api.tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet,
+                         scheduler=client)
     _with_storage(table, fmt, args, None)
     _write(table, out, fmt)
     stored = table.as_stored(fmt)
@@ -215,41 +242,16 @@ def _write(table, out: Path, fmt: str) -> None:
         raise CliError(f"output {out}: {exc}") from None
 
 
-def _progress_bar(total: int, quiet: bool):
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="texel", unit_scale=True, file=sys.stderr, disable=quiet, desc=PROG)
-
-
 def _bake_default_set(args: argparse.Namespace) -> int:
-    from .. import api
     from ..presets import default_specs
     from ..spec import normalize_spec
 
     out_dir = output_folder(args.output, "no spec")
-    specs = [(name, normalize_spec(spec)) for name, spec in default_specs()]
-    quiet_warp(args)
-    with _progress_bar(sum(texel_count(s) for _, s in specs), args.quiet) as bar:
-        for name, spec in specs:
-            start = bar.n
-            bar.set_postfix_str(name, refresh=False)
-
-            def advance(done, total, start=start, n=texel_count(spec)):
-                # the callback counts the integrator's own work items (the *_avg tables integrate
-                # several mu per texel): scale them onto this table's share of the bar
-                bar.update(max(0, start + int(n * done / total if total else 0) - bar.n))
-
-            table = api.tabulate(spec, device=args.device, workers=args.workers, progress=advance)
-            bar.update(start + texel_count(spec) - bar.n)
-            table.meta["storage"] = storage_report(table, "float32", "exr")
-            out = out_dir / name
-            io.write(table, out, "exr")
-            bar.write(summary(out, table) + storage_words(table.meta["storage"]), file=sys.stdout)
-    return 0
+    return bake_specs(args, [exr_job(out_dir / name, normalize_spec(spec)) for name, spec in default_specs()])
 
 
 def _bake_preset(args: argparse.Namespace) -> int:
-    from ..presets import build_preset, expand_preset, get_preset
+    from ..presets import expand_preset, prepare_preset
 
     if args.spec:
         raise CliError("give either a spec file or --preset, not both")
@@ -258,15 +260,27 @@ def _bake_preset(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CliError(str(exc)) from None
     out_dir = output_folder(args.output, "--preset")
-    quiet_warp(args)
+    jobs = []
     for name in names:
-        preset = get_preset(name)
-        fmt = args.format or getattr(preset, "file_format", None) or "exr"
-        table = build_preset(name, device=args.device, workers=args.workers, progress=not args.quiet)
-        _with_storage(table, fmt, args, getattr(preset, "storage", None))
-        out = io.output_path(out_dir, name.replace("-", "_"), fmt)
-        _write(table, out, fmt)
-        stored = table.as_stored(fmt)
-        print(summary(out, stored) + storage_words(table.meta["storage"]))
-        _emit(stored, out, args.emit_langs)
-    return 0
+        job = prepare_preset(name)
+        fmt = args.format or job.preset.file_format or "exr"
+        jobs.append(Job(io.output_path(out_dir, name.replace("-", "_"), fmt), job.spec, fmt,
+                        _preset_finish(job, fmt, args), lambda t: storage_words(t.meta["storage"]),
+                        _emitter(fmt, args.emit_langs)))
+    return bake_specs(args, jobs)
+
+
+def _preset_finish(job, fmt: str, args: argparse.Namespace):
+    def finish(source_table):
+        table = job.finish(source_table)
+        _with_storage(table, fmt, args, job.preset.storage)
+        return table
+
+    return finish
+
+
+def _emitter(fmt: str, langs: list[str]):
+    def after(table, out: Path) -> None:
+        _emit(table.as_stored(fmt), out, langs)
+
+    return after

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -19,7 +20,8 @@ from .. import io
 from ..spec import texel_count
 from .common import PROG, CliError, quiet_warp, summary
 
-__all__ = ["add_cluster_arguments", "bake_library", "bake_specs", "is_library_file", "scheduler_of"]
+__all__ = ["Job", "add_cluster_arguments", "bake_library", "bake_specs", "connect_cluster", "exr_job", "is_library_file",
+           "scheduler_of", "storage_words"]
 
 SCHEDULER_ENV = "BSDF_TAB_SCHEDULER"
 
@@ -49,13 +51,23 @@ def _bar(total: int, quiet: bool):
     return tqdm(total=total, unit="texel", unit_scale=True, file=sys.stderr, disable=quiet, desc=PROG)
 
 
-def bake_specs(args: argparse.Namespace, jobs: list[tuple[Path, dict]], fmt: str = "exr",
-               finish: Callable | None = None) -> int:
-    """Compute and write ``jobs`` (output path, normalized spec), each table as it completes.
+@dataclass
+class Job:
+    """One table to bake: where, from which spec, in which format, and what to do before
+    writing (``finish(table) -> table``: a preset's layout, the storage report)."""
 
-    ``finish(index, table) -> table`` may turn a computed table into what is written (presets).
-    """
-    todo = [(out, spec) for out, spec in jobs if not (getattr(args, "resume", False) and out.exists())]
+    out: Path
+    spec: dict
+    fmt: str = "exr"
+    finish: Callable | None = None
+    words: Callable | None = None  # words(table) -> text after the summary line
+    after: Callable | None = None  # after(table, out): more files beside it (lookup code)
+
+
+def bake_specs(args: argparse.Namespace, jobs: list) -> int:
+    """Compute and write ``jobs`` (:class:`Job`, or (output path, spec) pairs), each table as it completes."""
+    jobs = [j if isinstance(j, Job) else Job(Path(j[0]), j[1]) for j in jobs]
+    todo = [j for j in jobs if not (getattr(args, "resume", False) and j.out.exists())]
     skipped = len(jobs) - len(todo)
     if skipped:
         print(f"{PROG}: --resume: {skipped} of {len(jobs)} tables exist, skipped", file=sys.stderr)
@@ -67,7 +79,7 @@ def bake_specs(args: argparse.Namespace, jobs: list[tuple[Path, dict]], fmt: str
     if scheduler:
         client, owned = connect_cluster(scheduler)
     try:
-        return _bake(args, todo, fmt, finish, client)
+        return _bake(args, todo, client)
     finally:
         if owned:
             from ..cluster import close
@@ -90,20 +102,26 @@ def connect_cluster(scheduler: str):
     return client, owned
 
 
-def _bake(args, todo, fmt, finish, client) -> int:
+def _bake(args, todo: list[Job], client) -> int:
     from .. import api
 
     written = 0
-    with _bar(sum(texel_count(s) for _, s in todo), args.quiet) as bar:
+    with _bar(sum(texel_count(j.spec) for j in todo), args.quiet) as bar:
         try:
             for i, table in _tables(api, args, todo, client, bar):
-                out = todo[i][0]
-                out.parent.mkdir(parents=True, exist_ok=True)
-                if finish is not None:
-                    table = finish(i, table)
-                io.write(table, out, fmt)
+                job = todo[i]
+                job.out.parent.mkdir(parents=True, exist_ok=True)
+                if job.finish is not None:
+                    table = job.finish(table)
+                try:
+                    io.write(table, job.out, job.fmt)
+                except ValueError as exc:  # e.g. values beyond the float16 range
+                    raise CliError(f"output {job.out}: {exc}") from None
                 written += 1
-                bar.write(summary(out, table.as_stored(fmt)), file=sys.stdout)
+                words = job.words(table) if job.words is not None else ""
+                bar.write(summary(job.out, table.as_stored(job.fmt)) + words, file=sys.stdout)
+                if job.after is not None:
+                    job.after(table, job.out)
         except KeyboardInterrupt:
             print(f"{PROG}: interrupted: {written} of {len(todo)} tables written (whole files only); "
                   "rerun with --resume to finish", file=sys.stderr)
@@ -117,10 +135,11 @@ def _tables(api, args, todo, client, bar):
         def advance(done: int, total: int) -> None:
             bar.update(max(0, int(bar.total * done / total if total else 0) - bar.n))
 
-        yield from api.tabulate_many([s for _, s in todo], device=args.device, progress=advance,
+        yield from api.tabulate_many([j.spec for j in todo], device=args.device, progress=advance,
                                      scheduler=client)
         return
-    for i, (_out, spec) in enumerate(todo):
+    for i, job in enumerate(todo):
+        spec = job.spec
         start, n = bar.n, texel_count(spec)
 
         def advance(done, total, start=start, n=n):
@@ -156,4 +175,22 @@ def bake_library(args: argparse.Namespace) -> int:
     out_dir = Path(args.output or "luts")
     if out_dir.exists() and not out_dir.is_dir():
         raise CliError(f"output {out_dir} exists and is not a folder (a library is baked into -o DIR)")
-    return bake_specs(args, [(out_dir / rel, spec) for rel, spec in specs])
+    return bake_specs(args, [exr_job(out_dir / rel, spec) for rel, spec in specs])
+
+
+def exr_job(out: Path, spec: dict) -> Job:
+    """A float32 EXR job whose table records its storage report (the rounding to float32)."""
+    from ..io.storage import storage_report
+
+    def finish(table):
+        table.meta["storage"] = storage_report(table, "float32", "exr")
+        return table
+
+    return Job(out, spec, "exr", finish, storage_words)
+
+
+def storage_words(table) -> str:
+    """``"; storage float16 adds A 2.4e-04, B 8.9e-05"``: what the summary line says of storage."""
+    report = table.meta.get("storage") or {}
+    adds = ", ".join(f"{n} {c['storage_error']:.2g}" for n, c in report.get("channels", {}).items())
+    return f"; storage {report.get('encoding', '?')} adds {adds or 'nothing'}"

@@ -17,7 +17,16 @@ through :func:`bsdf_tab.tabulate`; :func:`preset_names` / :func:`get_preset` bro
 """
 
 from .axes import cycles_axis, cycles_ior_axis, cycles_z_axis, openpbr_ior_axis
-from .build import CYCLES_MIRROR_ALPHA2, build_preset, describe, expand_preset, get_preset, preset_names
+from .build import (
+    CYCLES_MIRROR_ALPHA2,
+    PresetJob,
+    build_preset,
+    describe,
+    expand_preset,
+    get_preset,
+    prepare_preset,
+    preset_names,
+)
 from .default_set import default_specs
 from .engines import GROUPS, PRESETS
 from .recipe import Output, Preset
@@ -28,6 +37,7 @@ __all__ = [
     "Output",
     "PRESETS",
     "Preset",
+    "PresetJob",
     "build_preset",
     "cycles_axis",
     "cycles_ior_axis",
@@ -37,5 +47,6 @@ __all__ = [
     "expand_preset",
     "get_preset",
     "openpbr_ior_axis",
+    "prepare_preset",
     "preset_names",
 ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -12,7 +13,7 @@ from ..table import Table
 from .engines import GROUPS, PRESETS
 from .recipe import Preset
 
-__all__ = ["CYCLES_MIRROR_ALPHA2", "build_preset", "describe", "expand_preset", "get_preset", "preset_names"]
+__all__ = ["CYCLES_MIRROR_ALPHA2", "PresetJob", "build_preset", "prepare_preset", "describe", "expand_preset", "get_preset", "preset_names"]
 
 CYCLES_MIRROR_ALPHA2 = 5e-7  # Cycles: alpha_x * alpha_y <= 5e-7 is a perfect mirror (E = 1)
 
@@ -53,21 +54,39 @@ def _select(axes: dict, select: dict | None) -> dict:
     return {n: (v[np.asarray(select[n], dtype=int)] if n in select else v) for n, v in axes.items()}
 
 
-def _tabulate_on(spec: dict, device, workers, progress) -> tuple[dict, dict, dict]:
-    """Channels of ``spec`` on exactly its axis values (which may be unsorted or repeated).
+@dataclass(frozen=True)
+class PresetJob:
+    """A preset made ready to compute: the spec to tabulate, and :meth:`finish` to turn that
+    table into the peer's (the CLI submits many presets' specs to a cluster at once)."""
 
-    The spec is tabulated on the sorted distinct values of each axis (a spec's axes increase
-    strictly); the result is indexed back. Returns (channels in the spec's axis order, the
-    normalized spec tabulated, the table's meta).
+    preset: Preset
+    axes: dict
+    select: dict | None
+    spec: dict  # normalized, on the sorted distinct values of each peer axis
+    inverse: dict  # axis name -> indices back to the peer's (maybe unsorted, repeated) values
+
+    def finish(self, source_table: Table) -> Table:
+        """The peer's table from the tabulated ``spec``."""
+        index = np.ix_(*[self.inverse[n] for n in self.spec["axes"]])
+        source = {k: np.asarray(v, dtype=np.float64)[index] for k, v in source_table.channels.items()}
+        return _peer_table(self, source, source_table.meta)
+
+
+def prepare_preset(name: str, select: dict | None = None) -> PresetJob:
+    """The :class:`PresetJob` of preset ``name`` (optionally on a subset of its axes).
+
+    A spec's axes increase strictly, the peers' need not (OpenPBR has ior = 1 twice, reversed
+    eta = 1/ior): the spec takes the sorted distinct values and :meth:`PresetJob.finish`
+    indexes back.
     """
+    preset = get_preset(name)
+    axes = _select(preset.axes(), select)
+    spec = preset.spec(axes)
     uniq, inverse = {}, {}
-    for name, values in spec["axes"].items():
-        uniq[name], inverse[name] = np.unique(np.asarray(values, dtype=np.float64), return_inverse=True)
-    full = {**spec, "axes": {n: [float(x) for x in v] for n, v in uniq.items()}}
-    nspec = normalize_spec(full)
-    table = tabulate(nspec, device=device, workers=workers, progress=progress)
-    index = np.ix_(*[inverse[n] for n in nspec["axes"]])
-    return {k: np.asarray(v, dtype=np.float64)[index] for k, v in table.channels.items()}, nspec, table.meta
+    for axis, values in spec["axes"].items():
+        uniq[axis], inverse[axis] = np.unique(np.asarray(values, dtype=np.float64), return_inverse=True)
+    nspec = normalize_spec({**spec, "axes": {n: [float(x) for x in v] for n, v in uniq.items()}})
+    return PresetJob(preset, axes, select, nspec, inverse)
 
 
 def _mirror_rule(values: np.ndarray, errors: np.ndarray, alpha: np.ndarray, axis: int):
@@ -114,6 +133,7 @@ def build_preset(
     device: str | None = None,
     workers: int | None = None,
     progress: bool | Callable[[int, int], None] = False,
+    scheduler=None,
 ) -> Table:
     """Compute the preset ``name`` in its peer's layout.
 
@@ -124,7 +144,7 @@ def build_preset(
     select : dict, optional
         Output axis name -> indices into the full peer axis: compute only that subset
         (the values are the peer's; used by tests and quick looks).
-    device, workers, progress :
+    device, workers, progress, scheduler :
         Passed to :func:`bsdf_tab.tabulate`.
 
     Returns
@@ -133,9 +153,12 @@ def build_preset(
         Axes in the peer's order, the peer's channels plus ``_err`` channels, and
         ``meta["preset"]`` with the conventions and the source spec.
     """
-    preset = get_preset(name)
-    axes = _select(preset.axes(), select)
-    source, nspec, source_meta = _tabulate_on(preset.spec(axes), device, workers, progress)
+    job = prepare_preset(name, select)
+    return job.finish(tabulate(job.spec, device=device, workers=workers, progress=progress, scheduler=scheduler))
+
+
+def _peer_table(job: PresetJob, source: dict, source_meta: dict) -> Table:
+    preset, axes, select, nspec = job.preset, job.axes, job.select, job.spec
     table = Table(axes, _peer_channels(preset, axes, source, list(nspec["axes"])), {})
     table.meta = {
         "table": preset.name,

@@ -7,7 +7,7 @@ import pytest
 
 import bsdf_tab.api
 from bsdf_tab import cli
-from bsdf_tab.cli import bake as bake_command
+from bsdf_tab.cli import many as many_command
 from bsdf_tab.presets import default_specs
 from bsdf_tab import read_exr
 from bsdf_tab.spec import normalize_spec, resolve_axes, texel_count
@@ -32,7 +32,7 @@ def fake_api(monkeypatch):
     """Replace bsdf_tab.api by a fake whose tabulate records its calls."""
     calls = []
 
-    def tabulate(spec, *, device=None, workers=None, progress=False):
+    def tabulate(spec, *, device=None, workers=None, progress=False, scheduler=None):
         calls.append({"spec": spec, "device": device, "workers": workers, "progress": progress})
         if callable(progress):
             n = texel_count(spec)
@@ -326,14 +326,14 @@ def test_default_set_progress_never_goes_backwards(tmp_path, capsys, monkeypatch
         def write(self, *a, **k):
             pass
 
-    def tabulate(spec, *, device=None, workers=None, progress=False):
+    def tabulate(spec, *, device=None, workers=None, progress=False, scheduler=None):
         n = texel_count(spec)
         for done in (n, 2 * n, 3 * n):  # three work items per texel
             progress(done, 3 * n)
         return hand_table(spec)
 
     monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
-    monkeypatch.setattr(bake_command, "_progress_bar", Bar)
+    monkeypatch.setattr(many_command, "_bar", Bar)
     assert run(capsys, "bake", "-o", str(tmp_path / "luts"))[0] == 0
     assert updates and min(updates) >= 0
     assert sum(updates) == sum(texel_count(normalize_spec(s)) for _, s in default_specs())
