@@ -24,7 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bsdf_tab  # noqa: E402
-from bsdf_tab.integrate.parallel import default_workers  # noqa: E402
+from bsdf_tab.integrate.runtime import default_workers  # noqa: E402
 import numpy_baseline  # noqa: E402
 
 CASES = [

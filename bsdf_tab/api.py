@@ -14,7 +14,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .integrate.parallel import resolve_device
+from .integrate.runtime import resolve_device
 from .spec import normalize_spec, resolve_axes
 from .table import Table
 from .tables import KINDS, Context

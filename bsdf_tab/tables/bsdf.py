@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..integrate.parallel import default_workers, run_chunks
+from ..integrate.runtime import default_workers, run_chunks
 from ..model import FRESNEL_DIELECTRIC, brdf, btdf, dlnD_dcos, fresnel_dielectric
 from ._common import Context, integrator_params
 
