@@ -24,7 +24,7 @@ Shadowing (the ``parametrization`` of the sheen tables, :mod:`bsdf_tab.tables.sh
   P is tabulated once per alpha by :func:`charlie_projected_area_table` (host, float64) and
   interpolated by :func:`charlie_projected_area` (4-point Lagrange on a sinh-graded theta grid
   of :data:`CHARLIE_TABLE_NODES` nodes; relative error of P = cos (1 + Lambda), hence of G,
-  below 1e-8 for alpha >= 1e-2 and below 2e-8 down to alpha = 1e-7, checked against SciPy in
+  below 2e-8 for alpha >= 1e-4 and below 1e-7 down to alpha = 1e-7, checked against SciPy in
   ``tests/sheen``). Height-correlated G.
 - ``ashikhmin``: the visibility V = 1 / (4 (mu_i + mu_o - mu_i mu_o)) of Neubelt and Pettineo
   2013, "Crafting a Next-Gen Material Pipeline for The Order: 1886" (after Ashikhmin and
