@@ -96,17 +96,22 @@ def _g_over_mu(dist: str, shadowing: str, mu, lv, lz, alpha):
     return g1_l / np.maximum(mu + lv, _TINY)  # mu + mu Lambda(mu) > 0 for alpha > 0
 
 
-def lobe_value(dist: str, shadowing: str, mu: float, alpha: float, L):
-    """f_r(V, L) cos(theta_L) (F = 1) at directions L (..., 3); 0 below the horizon."""
+def lobe_value(dist: str, shadowing: str, mu, alpha, L):
+    """f_r(V, L) cos(theta_L) (F = 1) at directions L (..., 3); 0 below the horizon.
+
+    ``mu`` and ``alpha`` are scalars or arrays broadcasting against L[..., 0].
+    """
     L = np.asarray(L, dtype=np.float64)
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), L.shape[:-1])
+    alpha = np.broadcast_to(np.maximum(np.asarray(alpha, dtype=np.float64), ALPHA_FLOOR), L.shape[:-1])
     V = view(mu)
     h = L + V
     hn = np.linalg.norm(h, axis=-1)
     h = h / np.maximum(hn, _TINY)[..., None]  # L = -V only below the horizon (masked below)
     lz = L[..., 2]
-    vh = h @ V
+    vh = np.sum(h * V, axis=-1)
     ok = (lz > 0.0) & (vh > 0.0) & (h[..., 2] > 0.0)
-    lv = float(lambda_cos(dist, mu, alpha))
+    lv = lambda_cos(dist, mu, alpha)
     gm = _g_over_mu(dist, shadowing, mu, lv, np.where(ok, lz, 1.0), alpha)
     return np.where(ok, gm * ndf(dist, np.where(ok, h[..., 2], 1.0), alpha) / 4.0, 0.0)
 

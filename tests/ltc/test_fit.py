@@ -214,3 +214,16 @@ def test_sphere_term_against_cap_quadrature(z, l):
     val, _ = integrate.quad(inner, 0.0, sigma, points=kinks or None, epsabs=1e-13, epsrel=1e-12, limit=200)
     assert float(sphere_term(z, l)) == pytest.approx(val / (math.pi * l), abs=1e-9)
     assert float(sphere_term(z, 0.0)) == max(z, 0.0)
+
+
+@pytest.mark.parametrize("dist", ["ggx", "beckmann"])
+@pytest.mark.parametrize("shadowing", ["separable", "correlated"])
+def test_lobe_value_matches_reference_brdf(dist, shadowing):
+    from bsdf_tab.ltc import lobe_value
+
+    rng = np.random.default_rng(3)
+    L = rng.normal(size=(300, 3))
+    L /= np.linalg.norm(L, axis=1, keepdims=True)
+    for mu, alpha in [(0.3, 0.2), (0.9, 0.7), (0.05, 1.5), (1.0, 0.01)]:
+        want = ref.f_r(ref.wi_of_mu(mu), L, alpha, dist, shadowing) * np.maximum(L[:, 2], 0.0)
+        np.testing.assert_allclose(lobe_value(dist, shadowing, mu, alpha, L), want, rtol=1e-12, atol=1e-300)
