@@ -53,7 +53,7 @@ def task_overhead(client, repeat: int = 20) -> float:
     times = []
     for k in range(repeat):
         t0 = time.perf_counter()
-        fut = client.submit(cluster.compute_chunk, nspec, axes, 0, [0], None, pure=False, key=f"probe-{k}")
+        fut = client.submit(cluster.compute_chunk, nspec, axes, {0: [0]}, None, pure=False, key=f"probe-{k}")
         fut.result()
         times.append(time.perf_counter() - t0)
     return statistics.median(times[2:])
@@ -64,8 +64,8 @@ def chunk_bytes(nspec: dict, axes: dict, n_workers: int) -> dict:
     sizes = [len(v) for v in axes.values()]
     total = math.prod(sizes)
     target = cluster.chunk_texels(total, n_workers)
-    spans = cluster.chunks(sizes[0], math.prod(sizes[1:]), target)
-    sent = sum(len(pickle.dumps((nspec, axes, 0, idx, None))) for idx in spans)
+    spans = cluster.chunks(sizes, 0, target)
+    sent = sum(len(pickle.dumps((nspec, axes, cut, None))) for cut in spans)
     n_channels = 2 * len(bsdf_tab.tables.CATALOG[nspec["table"]]["channels"])
     returned = total * n_channels * 8
     return {"tasks": len(spans), "texels_per_task": target, "bytes_sent": sent, "bytes_returned": returned}

@@ -315,7 +315,7 @@ def _cluster_blocks(nspec, axes, scheduler, device, block_texels, callback):
     try:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         task = cluster.submit_table(client, 0, nspec, axes, n_workers=n_workers, target=block_texels, device=device)
-        if task.axis == 0:
+        if task.axis == 0 and all(len(cut) == 1 for cut in task.spans):
             yield from cluster.completed_chunks(client, task, callback)
         else:
             for _i, channels in cluster.completed(client, [task], callback):

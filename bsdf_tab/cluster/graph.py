@@ -4,7 +4,9 @@ Every table is cut along one axis (the kind's ``chunk_axis``, default the first:
 keep the chunks regular) into chunks of about :func:`chunk_texels` texels. A chunk takes every
 n-th slice (slices j, j + n, j + 2n, ...), not a run of neighbours: texels near grazing cost
 several times more than the others, and interleaving spreads them over the chunks, so the
-workers finish together. All chunks of all tables go to the scheduler at once (one graph:
+workers finish together. When one slice alone is more than a chunk (a 128^3 table has 128
+slices of 16384 texels, too few tasks for hundreds of workers), the next axis is cut too, the
+same way, so the number of tasks follows the number of workers, not the table's first axis. All chunks of all tables go to the scheduler at once (one graph:
 the workers stay busy across table boundaries); :func:`completed` yields each table's channels
 as soon as its last chunk is back. Tasks are pure: a worker lost mid-bake has its chunks rerun
 elsewhere by the scheduler, with the same result.
@@ -35,14 +37,25 @@ def chunk_texels(total: int, n_workers: int) -> int:
     return int(min(MAX_CHUNK_TEXELS, max(MIN_CHUNK_TEXELS, want)))
 
 
-def chunks(n_axis: int, per_slice: int, target: int) -> list[np.ndarray]:
-    """Slice indices of each chunk of an axis of ``n_axis`` values, about ``target`` texels each.
-
-    Chunk j of n holds the slices j, j + n, j + 2n, ... (interleaved: see the module docstring).
-    """
-    per_chunk = max(1, target // max(1, per_slice))
-    n = -(-n_axis // per_chunk)
+def _interleaved(n_axis: int, n: int) -> list[np.ndarray]:
     return [np.arange(j, n_axis, n) for j in range(n)]
+
+
+def chunks(sizes: list[int], axis: int, target: int) -> list[dict[int, np.ndarray]]:
+    """The chunks of a table of shape ``sizes``, about ``target`` texels each.
+
+    Each chunk is ``{axis: indices}`` (whole slices of ``axis``) or, when one slice is larger
+    than ``target``, ``{axis: [i], other: indices}`` (part of one slice: ``other`` is the next
+    axis). Chunk j of n along an axis holds the indices j, j + n, j + 2n, ... (interleaved).
+    """
+    per_slice = math.prod(s for i, s in enumerate(sizes) if i != axis)
+    if per_slice <= target or len(sizes) == 1:
+        n = -(-sizes[axis] // max(1, target // max(1, per_slice)))
+        return [{axis: idx} for idx in _interleaved(sizes[axis], n)]
+    other = next(i for i in range(len(sizes)) if i != axis)
+    per_row = per_slice // sizes[other]
+    n = -(-sizes[other] // max(1, target // max(1, per_row)))
+    return [{axis: np.array([i]), other: idx} for i in range(sizes[axis]) for idx in _interleaved(sizes[other], n)]
 
 
 @dataclass
@@ -51,7 +64,8 @@ class TableTasks:
 
     index: int
     axis: int
-    spans: list[np.ndarray]
+    shape: tuple[int, ...]
+    spans: list[dict[int, np.ndarray]]
     futures: list
     texels: list[int]
     pending: set = field(default_factory=set)
@@ -62,13 +76,12 @@ def submit_table(client, index: int, nspec: dict, axes: dict, *, n_workers: int,
     """Submit the chunks of one table; ``index`` identifies it in :func:`completed`."""
     axis = int(KINDS[nspec["table"]].get("chunk_axis", 0))
     sizes = [len(v) for v in axes.values()]
-    per_slice = math.prod(s for i, s in enumerate(sizes) if i != axis)
     total = math.prod(sizes)
-    spans = chunks(sizes[axis], per_slice, target or chunk_texels(total, n_workers))
+    spans = chunks(sizes, axis, target or chunk_texels(total, n_workers))
     axes = {n: np.asarray(v, dtype=np.float64) for n, v in axes.items()}
-    futures = [client.submit(compute_chunk, nspec, axes, axis, idx, device, pure=True) for idx in spans]
-    texels = [len(idx) * per_slice for idx in spans]
-    return TableTasks(index, axis, spans, futures, texels, set(range(len(futures))))
+    futures = [client.submit(compute_chunk, nspec, axes, cut, device, pure=True) for cut in spans]
+    texels = [math.prod(len(cut[i]) if i in cut else s for i, s in enumerate(sizes)) for cut in spans]
+    return TableTasks(index, axis, tuple(sizes), spans, futures, texels, set(range(len(futures))))
 
 
 def completed(client, tables: list[TableTasks],
@@ -99,21 +112,30 @@ def completed(client, tables: list[TableTasks],
             yield t.index, _assemble(t, client.gather(t.futures))
 
 
+def _place(t: TableTasks, cut: dict) -> tuple:
+    return np.ix_(*[cut[i] if i in cut else np.arange(s) for i, s in enumerate(t.shape)])
+
+
 def _assemble(t: TableTasks, parts: list[dict]) -> dict:
-    """The table's channels from its chunks (each holding the slices ``t.spans[k]``)."""
-    order = np.concatenate(t.spans)
-    back = np.empty_like(order)
-    back[order] = np.arange(order.size)  # position of slice i in the concatenation
-    return {n: np.take(np.concatenate([p[n] for p in parts], axis=t.axis), back, axis=t.axis) for n in parts[0]}
+    """The table's channels from its chunks (chunk k holds the indices ``t.spans[k]``)."""
+    out = {n: np.empty(t.shape, dtype=np.asarray(v).dtype) for n, v in parts[0].items()}
+    for cut, part in zip(t.spans, parts):
+        where = _place(t, cut)
+        for n, v in part.items():
+            out[n][where] = v
+    return out
 
 
 def completed_chunks(client, table: TableTasks,
                      progress: Callable[[int, int], None] | None = None) -> Iterator[tuple[int, int, dict]]:
     """Yield ``(lo, lo + 1, channels)`` for each axis slice of one table, chunk by chunk as the
-    chunks complete (any order; a streaming writer takes any order).
+    chunks complete (any order; a streaming writer takes any order). Chunks must be whole
+    slices of axis 0 (a table cut on a second axis is assembled with :func:`completed`).
 
     Each chunk's result leaves the cluster once yielded, so a writer holds one chunk at a time.
     """
+    if table.axis != 0 or any(len(cut) > 1 for cut in table.spans):
+        raise ValueError("completed_chunks needs chunks of whole axis-0 slices")
     from distributed import as_completed
 
     index = {fut.key: k for k, fut in enumerate(table.futures)}
@@ -127,5 +149,5 @@ def completed_chunks(client, table: TableTasks,
         done += table.texels[k]
         if progress is not None:
             progress(done, total)
-        for j, i in enumerate(table.spans[k]):
-            yield int(i), int(i) + 1, {n: np.take(v, [j], axis=table.axis) for n, v in channels.items()}
+        for j, i in enumerate(table.spans[k][0]):
+            yield int(i), int(i) + 1, {n: np.take(v, [j], axis=0) for n, v in channels.items()}

@@ -1,6 +1,6 @@
 """What runs on a Dask worker: Warp set up once per process, and one chunk of a table.
 
-A chunk is a set of slices (indices) of one axis of a normalized spec's resolved axes. The table kinds
+A chunk is a set of indices along one or two axes of a normalized spec's resolved axes. The table kinds
 compute texels independently, so the slices assembled on the client are the in-process
 table bit for bit (tested), whatever the chunking and the number of workers.
 """
@@ -44,8 +44,8 @@ def _worker_threads() -> int | None:
         return None
 
 
-def compute_chunk(nspec: dict, axes: dict, axis: int, index, device: str | None = None) -> dict:
-    """The channels of the slices ``index`` (indices along ``axis``) of a normalized spec's table.
+def compute_chunk(nspec: dict, axes: dict, cut: dict, device: str | None = None) -> dict:
+    """The channels of the sub-table ``cut`` (axis number -> indices) of a normalized spec's table.
 
     Runs on the worker's own device (CUDA when the worker has one, as dask-cuda pins one GPU
     per worker; else the CPU with the worker's thread count).
@@ -54,8 +54,8 @@ def compute_chunk(nspec: dict, axes: dict, axis: int, index, device: str | None 
     from ..tables import KINDS, Context
 
     names = list(axes)
-    index = np.asarray(index, dtype=np.int64)
-    sub = {n: (np.asarray(v)[index] if i == axis else np.asarray(v)) for i, (n, v) in enumerate(axes.items())}
+    sub = {n: (np.asarray(v)[np.asarray(cut[i], dtype=np.int64)] if i in cut else np.asarray(v))
+           for i, (n, v) in enumerate(axes.items())}
     sub = {n: sub[n] for n in names}
     ctx = Context(resolve_device(device), _worker_threads(), None)
     channels = KINDS[nspec["table"]]["compute"](nspec, sub, ctx)
