@@ -65,6 +65,10 @@ def run_chunks(
     ``order`` permutes the texels before chunking (interleave cheap and expensive texels);
     ``progress(done, total)`` is called after each chunk, from the calling thread's lock.
     ``workers``: None for all cores, else >= 1 (ValueError otherwise; ignored on CUDA).
+
+    Cancellation: an exception raised by ``progress`` (or by a launch) stops the computation
+    between chunks: no chunk starts after it, the chunks already running finish, and the
+    exception propagates to the caller (the service cancels abandoned requests this way).
     """
     workers = check_workers(workers)
     if n == 0:
@@ -79,16 +83,23 @@ def run_chunks(
     pieces = [ids[s : s + chunk] for s in range(0, n, chunk)]
     done = 0
     lock = threading.Lock()
+    stop = threading.Event()  # set by the first failure: the remaining chunks do not start
 
     def work(piece: np.ndarray) -> None:
         nonlocal done
-        launch(wp.array(piece, dtype=wp.int32, device=device))
-        if device.is_cuda:
-            wp.synchronize_device(device)
-        with lock:
-            done += len(piece)
-            if progress is not None:
-                progress(done, n)
+        if stop.is_set():
+            return
+        try:
+            launch(wp.array(piece, dtype=wp.int32, device=device))
+            if device.is_cuda:
+                wp.synchronize_device(device)
+            with lock:
+                done += len(piece)
+                if progress is not None:
+                    progress(done, n)
+        except BaseException:
+            stop.set()
+            raise
 
     # the first chunk runs here: it compiles/loads the module once, before threads race for it
     work(pieces[0])
@@ -97,8 +108,15 @@ def run_chunks(
             work(piece)
         return
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        for fut in [pool.submit(work, piece) for piece in pieces[1:]]:
-            fut.result()
+        futures = [pool.submit(work, piece) for piece in pieces[1:]]
+        try:
+            for fut in futures:
+                fut.result()
+        except BaseException:
+            stop.set()
+            for fut in futures:
+                fut.cancel()
+            raise
 
 
 def texel_arrays(mu, alpha, eta, device: wp.Device):

@@ -37,3 +37,30 @@ def test_adaptive_does_not_depend_on_workers_or_chunking():
     c = METHODS["adaptive"]("reflect", mu[5:9], alpha[5:9], workers=1, tol=1e-5)
     assert all(np.array_equal(x, y) for x, y in zip(a, b))
     assert np.array_equal(a[0][5:9], c[0]) and np.array_equal(a[1][5:9], c[1])
+
+
+def test_an_exception_from_progress_stops_the_remaining_chunks():
+    # the service cancels abandoned computations by raising from the progress callback: with
+    # several worker threads no chunk may start after it (was: every queued chunk still ran)
+    import threading
+
+    from bsdf_tab.integrate.runtime import resolve_device, run_chunks
+
+    launched = []
+    lock = threading.Lock()
+
+    def launch(idx):
+        with lock:
+            launched.append(idx.shape[0])
+
+    class Stop(Exception):
+        pass
+
+    def progress(done, total):
+        if done >= 3:
+            raise Stop()
+
+    dev = resolve_device("cpu")
+    with pytest.raises(Stop):
+        run_chunks(1000, launch, dev, workers=2, chunk=1, progress=progress)
+    assert len(launched) < 20  # 1000 chunks of one texel: stopped within a few of the third
