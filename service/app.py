@@ -22,7 +22,7 @@ from .errors import install_handlers
 from .hotpath import HotPath
 from .jobs import Jobs
 from .routes import jobs as jobs_routes
-from .routes import pages, scenes, tables
+from .routes import check, pages, scenes, tables
 from .settings import Settings
 
 __all__ = ["create_app", "app"]
@@ -84,6 +84,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(pages.router)
     app.include_router(scenes.router)
     app.include_router(jobs_routes.router)
+    app.include_router(check.router)
 
     @app.head("/healthz", include_in_schema=False)  # load balancers probe with HEAD
     @app.get("/healthz", tags=["health"], summary="Liveness and counters (never waits on a computation)")

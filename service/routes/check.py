@@ -29,7 +29,7 @@ from bsdf_tab.errors import SpecError
 
 from ..errors import ServiceError
 from ..params import only_params
-from .tables import store_of
+from ..dependencies import store_of
 
 __all__ = ["MAX_LUT_BYTES", "PARAMS", "router"]
 
