@@ -13,6 +13,7 @@ from fastapi.testclient import TestClient  # noqa: E402
 
 import bsdf_tab  # noqa: E402
 from service.app import create_app  # noqa: E402
+from service.routes.check import MAX_LUT_BYTES  # noqa: E402
 from service.settings import Settings  # noqa: E402
 
 
@@ -68,5 +69,5 @@ def test_bad_parameters(client, flipped_npy, query, param):
 def test_bad_bodies(client):
     err(client.post("/check", content=b""), 400, "body")
     err(client.post("/check", content=b"\x89PNG\r\n\x1a\nbroken"), 400, "body")
-    big = b"0" * (check.MAX_LUT_BYTES + 1)
+    big = b"0" * (MAX_LUT_BYTES + 1)
     err(client.post("/check", content=big), 413, "body")
