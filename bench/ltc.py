@@ -1,7 +1,7 @@
 """LTC tables side by side: bsdf-tab's ``heitz-ltc`` fit against the shipped table of the public
 fitting code (``../shared/anchors/heitz_ltc``, as three.js, Godot, Bevy ... ship it).
 
-Run: ``python bench/ltc.py [--quick] [--quads 4] [--workers N]`` (or ``bsdf-tab bench ltc``).
+Run: ``python bench/ltc.py [--quick] [--quads 4] [--workers N]``.
 
 1. Builds the ``heitz-ltc`` preset (64 x 64, GGX, height-correlated, F = 1) and times it: the
    exact albedo, the fit and the fit metric, on this machine's cores (the load average is
