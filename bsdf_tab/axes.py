@@ -39,6 +39,9 @@ AXIS_DEFAULTS: dict[str, dict[str, Any]] = {
     "theta_h": {"size": 90, "spacing": "square", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
     "theta_d": {"size": 90, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi / 2], "clamp": None},
     "phi_d": {"size": 180, "spacing": "linear", "nodes": "left", "range": [0.0, math.pi], "clamp": None},
+    # albedo_aniso: view azimuth from the tangent (E is symmetric about 0 and pi/2), anisotropy a
+    "phi_v": {"size": 9, "spacing": "linear", "nodes": "endpoints", "range": [0.0, math.pi / 2], "clamp": None},
+    "anisotropy": {"size": 8, "spacing": "linear", "nodes": "endpoints", "range": [0.0, 1.0], "clamp": None},
 }
 
 #: Axis domains: (low, high, low_inclusive).  The high bound is inclusive.
@@ -52,6 +55,8 @@ AXIS_DOMAINS: dict[str, tuple[float, float, bool]] = {
     "theta_h": (0.0, math.pi / 2, True),
     "theta_d": (0.0, math.pi / 2, True),
     "phi_d": (0.0, 2.0 * math.pi, True),
+    "phi_v": (0.0, 2.0 * math.pi, True),
+    "anisotropy": (0.0, 1.0, True),
 }
 
 

@@ -16,10 +16,10 @@ Adding a table kind: a module here with its ``KINDS``, and its name in :data:`_M
 
 from __future__ import annotations
 
-from . import albedo, bsdf, dfg, dielectric, ltc, multiscatter, sheen
+from . import albedo, aniso, bsdf, dfg, dielectric, ltc, multiscatter, sheen
 from ._common import Context
 
-_MODULES = (albedo, dielectric, dfg, bsdf, multiscatter, ltc, sheen)
+_MODULES = (albedo, dielectric, dfg, bsdf, multiscatter, ltc, sheen, aniso)
 
 #: Kind name -> its entry (with the functions).
 KINDS: dict[str, dict] = {name: info for module in _MODULES for name, info in module.KINDS.items()}
