@@ -51,19 +51,17 @@ from bsdf_tab.cost import Cost, CostLimitError, estimate
 from bsdf_tab.errors import SpecError
 from bsdf_tab.spec import normalize_spec, resolve_axes, spec_hash
 import bsdf_tab.io as bsdf_io
-from bsdf_tab.io import json_default
-from bsdf_tab.io.json import finite_json
 from bsdf_tab.table import Table
 
 from .cache import DiskCache, MemoryLRU, SingleFlight, table_key
 from .errors import ClientGone, ServiceError, cost_error
+from .representations import DERIVE, MASTER
 from .settings import Settings
 
 __all__ = ["Cancelled", "Computation", "TableStore", "Prepared", "validator"]
 
 log = logging.getLogger("bsdf_tab.service")
 
-MASTER = "npz"
 #: seconds between two checks that a waiting client is still connected
 POLL_SECONDS = 0.25
 #: seconds between two looks at the cache while another process holds a key's lock
@@ -180,7 +178,32 @@ class TableStore:
         self._waiters: dict[str, int] = {}
         self._memo: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
+        self._client = None  # the Dask client when BSDF_TAB_SCHEDULER is set (see cluster())
+        self._owns_client = False
         self.started = time.time()
+
+    # ------------------------------------------------------------------ cluster
+
+    def cluster(self) -> dict:
+        """``{"scheduler": client}`` when ``BSDF_TAB_SCHEDULER`` is set (connected once), else ``{}``.
+
+        Raises
+        ------
+        ServiceError
+            503 naming the scheduler when it is malformed or does not answer.
+        """
+        if not self.settings.scheduler:
+            return {}
+        with self._lock:
+            if self._client is None:
+                from bsdf_tab.cluster import SchedulerError, connect
+
+                try:
+                    self._client, self._owns_client = connect(self.settings.scheduler)
+                except SchedulerError as exc:
+                    raise ServiceError(503, "scheduler_unavailable", str(exc), param="scheduler",
+                                       headers={"Retry-After": "5"}) from None
+            return {"scheduler": self._client}
 
     # ------------------------------------------------------------------ requests
 
@@ -276,7 +299,7 @@ class TableStore:
         payload = await self._cache_get(name, validator(variant, prep.key))
         if payload is not None:
             return payload
-        make = derive or _DERIVE[variant]
+        make = derive or DERIVE[variant]
 
         async def produce() -> bytes:
             master = await self._master_flight(prep, self.settings.max_compute_seconds)
@@ -427,7 +450,7 @@ class TableStore:
             comp.progress(0, prep.texels)  # cancelled or out of time while queued: do not start
             # the module global is looked up at call time: tests monkeypatch it
             table = tabulate(prep.nspec, device=self.settings.device, workers=self.settings.workers,
-                             progress=comp.progress)
+                             progress=comp.progress, **self.cluster())
             ok = True
         finally:
             with self._lock:
@@ -535,50 +558,13 @@ class TableStore:
                 comp.cancel("the service is shutting down")
         self.compute_pool.shutdown(wait=False, cancel_futures=True)
         self.io_pool.shutdown(wait=False, cancel_futures=True)
+        self.shutdown_cluster()
 
+    def shutdown_cluster(self) -> None:
+        """Close the Dask client (and the local cluster it started, if any)."""
+        with self._lock:
+            client, owned, self._client = self._client, self._owns_client, None
+        if client is not None and owned:
+            from bsdf_tab.cluster import close
 
-# ---------------------------------------------------------------------- representations
-# The file formats are bsdf_tab.io's (one meaning per name, the same bytes as the CLI writes);
-# ``info`` is the service's own summary.
-
-
-def to_exr(table: Table) -> bytes:
-    """The float32 EXR file (:mod:`bsdf_tab.io.exr`)."""
-    return bsdf_io.to_bytes(table, "exr")
-
-
-def to_npy(table: Table) -> bytes:
-    """One structured ``.npy`` array shaped by the axes, a float64 field per channel.
-
-    (:mod:`bsdf_tab.io.npy`; ``np.load(..., allow_pickle=False)`` reads it; axes are in the
-    npz / JSON / EXR forms.)
-    """
-    return bsdf_io.to_bytes(table, "npy")
-
-
-def to_json(table: Table) -> bytes:
-    """The table as strict, compact JSON (:mod:`bsdf_tab.io.json`)."""
-    return bsdf_io.to_bytes(table, "json")
-
-
-def to_info(table: Table) -> bytes:
-    """Metadata without the data: spec, conventions, method, max error, axes summary."""
-    meta = finite_json(json.loads(json.dumps(table.meta, default=json_default)))
-    info = {
-        "table": table.kind,
-        "shape": list(table.shape),
-        "axes": {
-            n: {"size": int(len(a)), "min": float(a.min()), "max": float(a.max())} for n, a in table.axes.items()
-        },
-        "channels": list(table.channels),
-        "max_error": {k: (v if np.isfinite(v) else None) for k, v in table.max_error().items()},
-        "conventions": meta.get("conventions"),
-        "method": meta.get("method"),
-        "spec": meta.get("spec"),
-        "version": meta.get("version"),
-    }
-    return json.dumps(info, allow_nan=False).encode()
-
-
-#: variant -> how it is made from the master table (the master itself is ``MASTER``)
-_DERIVE = {"exr": to_exr, "npy": to_npy, "json": to_json, "info": to_info}
+            close(client)

@@ -292,7 +292,8 @@ class Jobs:
             key = prepared
             settings = self.settings
             work = store.run_scene(prepared, lambda cp: scene_plan_bytes(request["scene"], request.get("tol"), settings, cp,
-                                                                          max_cost=settings.max_job_cost_seconds),
+                                                                          max_cost=settings.max_job_cost_seconds,
+                                                                          **store.cluster()),
                                    limit_seconds=self.settings.job_max_seconds)
         task = asyncio.ensure_future(work)
         try:

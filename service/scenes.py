@@ -55,13 +55,16 @@ def scene_texel_cap(lookup_tol: float, max_cost: float, scale: float = 1.0) -> i
     return max(1, int(max_cost / (CHECK_FACTOR * one.per_integration)))
 
 
-def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, max_cost: float | None = None) -> bytes:
+def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, max_cost: float | None = None,
+                     scheduler=None) -> bytes:
     """The answer of ``POST /scenes``: plan, then the JSON bytes (``checkpoint`` is the planner's log).
 
     ``planner`` defaults to :func:`bsdf_tab.scene.plan_scene` (tests count its calls). The cost
     limit (``max_cost``, default ``settings.max_cost_seconds``) becomes a texel cap for the
     planner (:func:`scene_texel_cap`): candidates above it are skipped before they are computed,
     and a scene that needs larger tables is a :class:`~bsdf_tab.cost.CostLimitError` naming ``tol``.
+    ``scheduler`` (the store's Dask client, when ``BSDF_TAB_SCHEDULER`` is set) computes the
+    candidate tables on the cluster.
     """
     limit = settings.max_cost_seconds if max_cost is None else max_cost
     parsed = parse_scene(scene)
@@ -71,8 +74,9 @@ def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, 
         cap = min(cap, scene_texel_cap(float(lookup_tol), limit, settings.cost_scale))
     # candidates above the cap are skipped before computing; none left -> 413
     try:
+        extra = {"scheduler": scheduler} if scheduler is not None else {}
         plan = (planner or plan_scene)(scene, tol, device=settings.device, workers=settings.workers, max_texels=cap,
-                                       log=checkpoint)
+                                       log=checkpoint, **extra)
     except TexelLimitError as exc:
         if cap >= settings.max_texels:
             raise  # the service's texel limit itself

@@ -82,8 +82,8 @@ def run(args: argparse.Namespace) -> int:
             raise CliError("--format: a scene is baked as EXR tables and manifest.json")
         if args.precision is not None or args.store_tol is not None or args.emit_langs:
             raise CliError("--precision, --store-tol and --emit apply to a spec file or --preset, not a scene")
-        if scheduler_of(args) is not None or args.resume:
-            raise CliError("--scheduler and --resume apply to a spec file, --preset, a library or the default set")
+        if args.resume:
+            raise CliError("--resume applies to a spec file, --preset, a library or the default set")
         return bake_scene(args)
     _check_storage_options(args)
     if args.preset is not None:

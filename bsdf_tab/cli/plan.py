@@ -29,6 +29,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")
     parser.add_argument("--workers", type=int, default=None, help="number of parallel workers")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS|local:N",
+                        help="compute the candidate tables on a Dask cluster (default: $BSDF_TAB_SCHEDULER)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -78,8 +80,17 @@ def _plan(args: argparse.Namespace, path: str) -> ScenePlan:
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
+    from .many import connect_cluster, scheduler_of
+
+    scheduler = scheduler_of(args)
+    client, owned = connect_cluster(scheduler) if scheduler else (None, False)
     try:
         return plan_scene(scene, args.tol, device=args.device, workers=args.workers,
-                          log=None if args.quiet else log)
+                          log=None if args.quiet else log, scheduler=client)
     except SpecError as exc:
         raise CliError(f"{path}: {exc}") from None
+    finally:
+        if owned:
+            from ..cluster import close
+
+            close(client)

@@ -190,8 +190,8 @@ def _table_spec(kind, dist, shadowing, fresnel, axes: dict, integration_tol: flo
 class _Cache:
     """Tables computed by :func:`bsdf_tab.api.tabulate` (the one path), memoized by spec."""
 
-    def __init__(self, device, workers, max_texels: int | None = None):
-        self.device, self.workers = device, workers
+    def __init__(self, device, workers, max_texels: int | None = None, scheduler=None):
+        self.device, self.workers, self.scheduler = device, workers, scheduler
         self.max_texels = max_texels
         self.tables: dict[str, Any] = {}
         self.calls = 0
@@ -202,7 +202,8 @@ class _Cache:
         key = json.dumps(spec, sort_keys=True)
         if key not in self.tables:
             self.calls += 1
-            self.tables[key] = api.tabulate(spec, device=self.device, workers=self.workers)
+            self.tables[key] = api.tabulate(spec, device=self.device, workers=self.workers,
+                                            **({"scheduler": self.scheduler} if self.scheduler is not None else {}))
         return self.tables[key]
 
 
@@ -407,6 +408,7 @@ def plan_scene(
     workers: int | None = None,
     max_texels: int | None = None,
     log: Callable[[str], None] | None = None,
+    scheduler=None,
 ) -> ScenePlan:
     """Plan (and compute) the minimal tables of a scene for the max lookup error ``lookup_tol``.
 
@@ -423,6 +425,8 @@ def plan_scene(
         computed; when no smaller candidate meets ``lookup_tol``, :class:`TexelLimitError`.
     log : callable, optional
         Receives one line per verified candidate (progress; the CLI prints them on stderr).
+    scheduler : distributed.Client or str, optional
+        Compute the candidate tables on a Dask cluster (passed to :func:`bsdf_tab.api.tabulate`).
 
     Returns
     -------
@@ -442,7 +446,7 @@ def plan_scene(
         lookup_tol = sc["lookup_tol"]
     else:
         lookup_tol = check_lookup_tol(lookup_tol, "tol")
-    cache = _Cache(device, workers, max_texels)
+    cache = _Cache(device, workers, max_texels, scheduler)
     spacings = sc["lookup"]["spacings"]
     interpolation = sc["lookup"]["interpolation"]
     groups: dict[tuple, list[dict]] = {}

@@ -63,7 +63,7 @@ async def post_scene(request: Request) -> Response:
     store = store_of(request)
     settings = request.app.state.settings
     payload = await store.run_scene(name, lambda checkpoint: scene_plan_bytes(scene, tol, settings, checkpoint,
-                                                                              planner=plan_scene),
+                                                                              planner=plan_scene, **store.cluster()),
                                     client=request.is_disconnected)
     return Response(payload, media_type="application/json", headers=headers)
 
