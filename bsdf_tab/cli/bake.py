@@ -26,7 +26,16 @@ from pathlib import Path
 from .. import io
 from ..io.storage import ENCODINGS, FORMAT_STORAGE, choose_encoding, storage_report
 from .common import CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
-from .many import Job, add_cluster_arguments, bake_library, bake_specs, exr_job, is_library_file, scheduler_of
+from .many import (
+    Job,
+    add_cluster_arguments,
+    bake_library,
+    bake_specs,
+    check_cost,
+    exr_job,
+    is_library_file,
+    scheduler_of,
+)
 from .plan import bake_scene, is_scene_file
 
 STORAGE_ENCODINGS = tuple(ENCODINGS)
@@ -118,6 +127,7 @@ def _bake_one(args: argparse.Namespace) -> int:
     if args.resume and out.exists():
         print(f"{out}: exists, skipped (--resume)")
         return 0
+    check_cost(args, [spec])
     quiet_warp(args)
     scheduler = scheduler_of(args)
     client, owned = (None, False)

@@ -20,7 +20,7 @@ from .. import io
 from ..spec import texel_count
 from .common import PROG, CliError, quiet_warp, summary
 
-__all__ = ["Job", "add_cluster_arguments", "bake_library", "bake_specs", "connect_cluster", "exr_job", "is_library_file",
+__all__ = ["Job", "add_cluster_arguments", "bake_library", "bake_specs", "check_cost", "connect_cluster", "exr_job", "is_library_file",
            "scheduler_of", "storage_words"]
 
 SCHEDULER_ENV = "BSDF_TAB_SCHEDULER"
@@ -33,6 +33,9 @@ def add_cluster_arguments(parser: argparse.ArgumentParser) -> None:
                              f"(default: ${SCHEDULER_ENV}, else in-process threads)")
     parser.add_argument("--resume", action="store_true",
                         help="skip tables whose output file already exists (a rerun after an interruption)")
+    parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
+                        help="refuse, before computing, a bake the cost model (bsdf_tab.cost) predicts to take "
+                             "longer than S seconds here")
 
 
 def scheduler_of(args: argparse.Namespace) -> str | None:
@@ -73,6 +76,7 @@ def bake_specs(args: argparse.Namespace, jobs: list) -> int:
         print(f"{PROG}: --resume: {skipped} of {len(jobs)} tables exist, skipped", file=sys.stderr)
     if not todo:
         return 0
+    check_cost(args, [j.spec for j in todo])
     scheduler = scheduler_of(args)
     quiet_warp(args)
     client, owned = None, False
@@ -85,6 +89,27 @@ def bake_specs(args: argparse.Namespace, jobs: list) -> int:
             from ..cluster import close
 
             close(client)
+
+
+def check_cost(args: argparse.Namespace, specs: list[dict]) -> None:
+    """``--max-seconds S``: one CliError line when the predicted wall time of ``specs`` exceeds S."""
+    limit = getattr(args, "max_seconds", None)
+    if limit is None:
+        return
+    if not limit > 0:
+        raise CliError(f"--max-seconds must be > 0, got {limit:g}")
+    from ..cost import check, estimate
+
+    if len(specs) == 1:
+        try:
+            check(specs[0], limit, workers=args.workers)
+        except ValueError as exc:  # CostLimitError: names the parameters and the prediction
+            raise CliError(f"--max-seconds {limit:g}: {exc}") from None
+        return
+    total = sum(estimate(s).wall_seconds(args.workers) for s in specs)
+    if total > limit:
+        raise CliError(f"--max-seconds {limit:g}: the {len(specs)} tables are predicted to take {total:.3g} s "
+                       "here; raise the limit, bake fewer tables, or use --scheduler")
 
 
 def connect_cluster(scheduler: str):

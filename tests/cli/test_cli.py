@@ -337,3 +337,15 @@ def test_default_set_progress_never_goes_backwards(tmp_path, capsys, monkeypatch
     assert run(capsys, "bake", "-o", str(tmp_path / "luts"))[0] == 0
     assert updates and min(updates) >= 0
     assert sum(updates) == sum(texel_count(normalize_spec(s)) for _, s in default_specs())
+
+
+def test_max_seconds_refuses_a_bake_predicted_too_long(tmp_path, capsys):
+    # the cost model predicts before anything runs: 2^26 Monte Carlo samples per texel take minutes
+    spec = tmp_path / "big.json"
+    spec.write_text(json.dumps({"table": "albedo", "method": "mc_vndf", "effort": 1 << 26,
+                                "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}}))
+    code, out, err = run(capsys, "bake", str(spec), "--max-seconds", "5", "-q")
+    assert_one_line_error(code, err, "--max-seconds 5", "effort")
+    assert not (tmp_path / "big.exr").exists()
+    code, out, err = run(capsys, "bake", "--max-seconds", "0.01", "-o", str(tmp_path / "d"), "-q")
+    assert_one_line_error(code, err, "--max-seconds 0.01", "predicted")
