@@ -8,15 +8,19 @@ lobe's own micro-normal coordinates (:func:`bsdf_tab.ltc.lobe.lobe_nodes`), norm
 rule's own mass so both lobes integrate to 1 on it.
 
 Optimizer: Nelder-Mead (Nelder and Mead 1965, "A Simplex Method for Function Minimization"),
-batched over the texels of one row of constant mu, in the parameters (beta, ln m11, ln m22, q)
-of :mod:`bsdf_tab.ltc.matrix`, steps relative to the lobe's width; it stops at a relative
-change of the objective below 1e-4 (absolute 1e-6) or an iteration cap, then restarts once from
-its result with half steps (the usual remedy for a collapsed simplex). Rows run from normal
+batched over the texels of one row of constant mu. Per row: on the coarse rule
+:data:`FIT_RULE`, in the parameters (beta, ln m11, ln m22, q) of :mod:`bsdf_tab.ltc.matrix`
+(steps relative to the lobe's width; stop at a change below 1e-4 relative, 1e-6 absolute, or
+:data:`_MAX_ITERS`); then on the fine rule :data:`FIT_RULE_FINE`, in the four stored entries
+of Minv / Minv_11 (a second coordinate system: a valley that stalls one does not stall the
+other; stop at 1e-5 relative, 1e-7 absolute); then the neighbour pass (a texel whose
+alpha-neighbour's fit is better on its own objective restarts from it). Rows run from normal
 incidence to grazing (the public code's order). Each texel starts from the best of: the fit of
 the same alpha in the previous row (the warm start) and a cold start independent of any other
 texel (tilt = the lobe's mean direction, isotropic width from a scan of nine scales), so a bad
-neighbour cannot derail a row. Everything is fixed-order float64: the same inputs give the same
-table bit for bit.
+neighbour cannot derail a row. Everything is fixed-order float64 and the alpha axis is cut into
+fixed blocks of :data:`BLOCK` columns: the same inputs give the same table bit for bit, for any
+number of worker threads.
 
 Normal incidence (mu = 1): the lobe is rotationally symmetric; the fit there is the 1-D
 search over Minv / Minv_11 = diag(1, 1, m) (golden section), exactly isotropic.
