@@ -25,6 +25,8 @@ NAME = "bench"
 BENCHMARKS = {
     "accuracy": ("accuracy.py", "every integration method: error against time, Pareto front, heatmaps, honesty"),
     "compare_peers": ("compare_peers.py", "the engine presets against the tables the engines ship"),
+    "ltc": ("ltc.py", "LTC fit side by side with the shipped table"),
+    "cluster": ("cluster.py", "in-process against a local Dask cluster: overhead, per-task cost, bytes moved"),
 }
 
 HELP = "run a benchmark from the source checkout (" + ", ".join(BENCHMARKS) + ")"

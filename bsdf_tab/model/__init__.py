@@ -75,5 +75,6 @@ from .fresnel import (
 )
 from .bsdf import brdf, btdf
 from .multiscatter import kc_f_ms, kc_F_ms, kc_lobe, kc_C, fresnel_avg, lerp_grid_1d, lerp_grid_2d
+from .ltc import ltc_edge, ltc_eval, ltc_minv, ltc_polygon_integral, ltc_quad_integral
 
 __all__ = [name for name in dir() if not name.startswith("_")]

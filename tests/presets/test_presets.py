@@ -65,12 +65,28 @@ EXPECTED_AXES = {
     "filament-dfg-multiscatter": {"roughness": (np.arange(128) + 0.5) / 128, "mu": (np.arange(128) + 0.5) / 128},
     "unity-hdrp-fgd": {"roughness": np.arange(64) / 63, "mu": (np.arange(64) / 63) ** 2},
 }
+# the Heitz LTC layouts (anchors README): x = t/63 with cos theta = 1 - x^2 (theta clamped to 1.57 in
+# the shipped table), roughness r = a/63 with alpha = max(r^2, 1e-5)
+_X = np.arange(64) / 63
+_LTC_ALPHA = np.maximum(_X**2, 1e-5)
+LTC_AXES = {
+    "heitz-ltc": {"mu": np.cos(np.minimum(1.57, np.arccos(1 - _X**2))), "alpha": _LTC_ALPHA},
+    "heitz-ltc-rgba": {"mu": 1 - _X**2, "alpha": _LTC_ALPHA},
+}
+
+
+@pytest.mark.parametrize("name", sorted(LTC_AXES))
+def test_ltc_preset_axes(name):
+    axes = get_preset(name).axes()
+    assert list(axes) == list(LTC_AXES[name])
+    for axis, values in LTC_AXES[name].items():
+        np.testing.assert_allclose(axes[axis], values, rtol=1e-12, atol=1e-15)
 
 
 def test_every_preset_has_expected_axes():
     from tests.presets.test_engine_presets import ENGINE_AXES  # the issue-15 engines, from their sources
 
-    assert set(EXPECTED_AXES) | set(ENGINE_AXES) == set(PRESETS)
+    assert set(EXPECTED_AXES) | set(ENGINE_AXES) | set(LTC_AXES) == set(PRESETS)
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED_AXES))
