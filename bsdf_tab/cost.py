@@ -74,10 +74,17 @@ KIND_MODE = {
     "dielectric_avg": "dielectric",
     "bsdf": "point",
     "ltc": "dfg",  # E and the Schlick amplitude through the grid, then the per-texel fit
+    # own fixed-rule kernels (tables/sheen.py, tables/aniso.py): priced as host work per texel
+    "sheen_albedo": "point",
+    "sheen_albedo_avg": "point",
+    "albedo_aniso": "point",
 }
 #: Kinds with host work besides their integrals: (fixed core-seconds, core-seconds per texel)
 #: (measured: ltc 4 x 4 0.40 s, 8 x 8 0.92 s: the L1 fits of the LTC matrices).
-KIND_HOST_SECONDS = {"ltc": (0.15, 0.011)}
+KIND_HOST_SECONDS = {"ltc": (0.15, 0.011),
+                     # measured roughly (2 shared cores, workers=1): a sheen texel 0.015 s, a mu-average
+                     # 60 texels; an anisotropic texel 0.05 s (more at grazing mu)
+                     "sheen_albedo": (0.1, 0.015), "sheen_albedo_avg": (0.1, 0.9), "albedo_aniso": (0.0, 0.05)}
 #: Kinds that average over mu (one integration per node of the mu-average's panels).
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
