@@ -8,7 +8,7 @@ name in :data:`_ENGINES`; a group of the same name lists its presets.
 
 from __future__ import annotations
 
-from . import bevy, cycles, eevee, filament, gltf, godot, ltc, openpbr, threejs, unity, unreal
+from . import bevy, cycles, eevee, filament, gltf, godot, ltc, openpbr, sheen, threejs, unity, unreal
 from .recipe import Preset
 
 __all__ = ["GROUPS", "PRESETS"]
@@ -25,6 +25,7 @@ _ENGINES = {
     "threejs": threejs,
     "unreal": unreal,
     "heitz": ltc,
+    "sheen": sheen,
 }
 
 #: Preset name -> :class:`~.recipe.Preset`, engine by engine.

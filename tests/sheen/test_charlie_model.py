@@ -20,7 +20,7 @@ from bsdf_tab.model.charlie import (
     charlie_projected_area_table,
     charlie_sample,
 )
-from test_sheen_albedo import P_ref, lam_fit_ref
+from tests.sheen.test_sheen_albedo import P_ref, lam_fit_ref
 
 
 def _make(dtype, vec):
