@@ -12,9 +12,11 @@ Four estimators of the same integrals (see :mod:`bsdf_tab.integrate.integrand`):
                "Practical Hash-based Owen Scrambling": hash-based nested uniform scrambling,
                index shuffling), 8 independent scrambles of N/8 points each.
 
-Random numbers: Warp's ``wp.rand_init(seed, texel)`` / ``wp.randf`` (fixed seed: results are
-deterministic and do not depend on chunking or worker count). alpha = 0 gives the mirror limit
-exactly.
+Random numbers: Warp's ``wp.rand_init`` / ``wp.randf``, seeded by the seed and a hash of the
+texel's own parameters (mu, alpha, eta), not its position in the launch: a texel gets the same
+samples whatever the chunking, the worker count, the table it is in, or the cluster worker that
+computes it (a Dask chunk assembles the in-process table bit for bit). alpha = 0 gives the mirror
+limit exactly.
 
 Error channel (honest, never small when the estimate is unreliable):
 
@@ -69,7 +71,7 @@ def mc_cosine_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.floa
         # alpha = 0: the mirror limit is stored
         return
     zero = wp.float64(0.0)
-    state = wp.rand_init(seed, i)
+    state = wp.rand_init(_texel_seed(seed, p))
     s = wp.vec2d(zero, zero)
     q = wp.vec2d(zero, zero)
     wmax = zero
@@ -116,7 +118,7 @@ def mc_dcos_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
         # alpha = 0: the mirror limit is stored
         return
     zero = wp.float64(0.0)
-    state = wp.rand_init(seed, i)
+    state = wp.rand_init(_texel_seed(seed, p))
     s = wp.vec2d(zero, zero)
     q = wp.vec2d(zero, zero)
     wmax = zero
@@ -150,7 +152,7 @@ def mc_vndf_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float6
         # alpha = 0: the mirror limit is stored
         return
     zero = wp.float64(0.0)
-    state = wp.rand_init(seed, i)
+    state = wp.rand_init(_texel_seed(seed, p))
     wi = wp.vec3d(p.sin_i, zero, p.mu)
     scale = p.mu + p.li  # (G / mu)(mu + mu Lambda_i) = G / G1(i)
     s = wp.vec2d(zero, zero)
@@ -211,6 +213,23 @@ def _hash(x: wp.uint32):
 
 
 @wp.func
+def _texel_key(p: TexelParams):
+    """A hash of the texel's parameters (mu, alpha, eta quantized to 2^-30, 2^-28, 2^-24 steps).
+
+    The samples of a texel depend on what the texel is, never on its index in a launch."""
+    h = _hash(wp.uint32(wp.clamp(p.mu, wp.float64(0.0), wp.float64(1.0)) * wp.float64(1073741824.0)))
+    h = _hash(h ^ wp.uint32(wp.clamp(p.alpha, wp.float64(0.0), wp.float64(15.0)) * wp.float64(268435456.0)))
+    h = _hash(h ^ wp.uint32(wp.clamp(p.eta, wp.float64(0.0), wp.float64(255.0)) * wp.float64(16777216.0)))
+    return _hash(h ^ wp.uint32(p.mode))
+
+
+@wp.func
+def _texel_seed(seed: wp.int32, p: TexelParams):
+    # rand_init takes an int32 seed: the low 31 bits of the mixed key
+    return wp.int32(_hash(wp.uint32(seed) ^ _texel_key(p)) & wp.uint32(0x7FFFFFFF))
+
+
+@wp.func
 def _sobol1(index: wp.uint32):
     """Second Sobol dimension (direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1))."""
     x = wp.uint32(0)
@@ -247,7 +266,7 @@ def qmc_vndf_kernel(idx: wp.array(dtype=wp.int32), mu_a: wp.array(dtype=wp.float
     s = wp.vec2d(zero, zero)
     q = wp.vec2d(zero, zero)
     for r in range(nrep):
-        key = _hash(_hash(wp.uint32(seed)) ^ _hash(wp.uint32(i) * wp.uint32(8) + wp.uint32(r)))
+        key = _hash(_hash(wp.uint32(seed)) ^ _hash(_texel_key(p) * wp.uint32(8) + wp.uint32(r)))
         k_index = _hash(key ^ _U9E3779B9)
         k0 = _hash(key ^ _U85EBCA6B)
         k1 = _hash(key ^ _UC2B2AE35)

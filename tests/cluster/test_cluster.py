@@ -154,3 +154,14 @@ def test_real_scheduler_and_workers_survive_a_killed_worker(tmp_path, in_process
         for p in reversed(procs):
             _stop(p)
     assert all(p.poll() is not None for p in procs)
+
+
+def test_monte_carlo_tables_are_the_same_on_the_cluster(client):
+    # the samples of a texel are seeded by its parameters, not its index in a launch
+    spec = {"table": "albedo", "method": "mc_vndf", "effort": 512, "axes": {"mu": {"size": 5}, "alpha": [0.2, 0.6]}}
+    a = bsdf_tab.tabulate(spec, device="cpu")
+    nspec = normalize_spec(spec)
+    task = cluster.submit_table(client, 0, nspec, resolve_axes(nspec), n_workers=2, target=2)
+    (_, channels), = list(cluster.completed(client, [task]))
+    assert len(task.spans) == 5
+    assert all(np.array_equal(a.channels[c], channels[c]) for c in a.channels)
