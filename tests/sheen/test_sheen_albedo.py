@@ -135,3 +135,12 @@ def test_tabulate_spec_and_avg():
     assert abs(avg.channels["E_avg"][0] - ref) <= max(avg.channels["E_avg_err"][0], 1e-9)
     with pytest.raises(bsdf_tab.SpecError):
         bsdf_tab.normalize_spec({"table": "sheen_albedo", "parametrization": "smith"})
+
+
+def test_avg_against_reference_quadrature():
+    """sheen_albedo_avg against 2 int E mu dmu with E from the SciPy reference (Gauss-Legendre in w = sqrt(mu))."""
+    x, w = np.polynomial.legendre.leggauss(16)
+    ws = 0.5 * (x + 1)
+    ref = sum(0.5 * wk * 4 * s**3 * E_ref(s * s, 1.0, "ashikhmin") for s, wk in zip(ws, w))
+    avg = bsdf_tab.tabulate({"table": "sheen_albedo_avg", "parametrization": "ashikhmin", "axes": {"alpha": [1.0]}})
+    assert abs(avg.channels["E_avg"][0] - ref) <= max(avg.channels["E_avg_err"][0], 2e-6), (avg.channels["E_avg"][0], ref)
