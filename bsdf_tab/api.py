@@ -38,6 +38,15 @@ METHOD_TEXT = {
     "QUADPACK's rescaled |K15 - G7| (resasc * min(1, (200 |K15 - G7| / resasc)^1.5)) plus "
     "propagated inner errors",
     "point": "float64 point evaluation of the BSDF (Walter eqs. 20 and 21); error = rounding bound",
+    "gauss_kronrod": "G7-K15 over the half vector, split at the closed-form horizon; error = sum of |K15 - G7| "
+    "(the sheen tables' own kernel, bsdf_tab/tables/sheen.py)",
+}
+
+#: Table kinds whose lobe is not the spec's microfacet distribution: what their metadata records.
+_SHEEN_SHADOWING = {
+    "fitted": "Estevez and Kulla 2017 fitted Lambda (glTF KHR_materials_sheen, Filament), V clamped to [0, 1]",
+    "exact": "exact Smith Lambda of the Charlie distribution, computed numerically",
+    "ashikhmin": "Ashikhmin / Neubelt visibility 1 / (4 (mu_i + mu_o - mu_i mu_o)) (Filament's cloth)",
 }
 
 
@@ -70,6 +79,13 @@ def conventions(nspec: dict) -> dict:
         "shadowing_definition": _SHADOWING_TEXT[nspec["shadowing"]],
         "fresnel": nspec["fresnel"],
     }
+    if nspec["table"].startswith("sheen"):
+        conv["distribution"] = "charlie (Estevez and Kulla 2017, Production Friendly Microfacet Sheen BRDF)"
+        conv["shadowing"] = nspec.get("parametrization")
+        conv["shadowing_definition"] = _SHEEN_SHADOWING.get(nspec.get("parametrization"), nspec.get("parametrization"))
+    if nspec["table"] == "albedo_aniso":
+        conv["anisotropy"] = ("alpha_x = alpha / sqrt(1 - 0.9 a), alpha_y = alpha sqrt(1 - 0.9 a); phi_v is the view "
+                              "azimuth from the tangent")
     if nspec["table"].startswith("dielectric"):
         conv["eta"] = "eta = eta_o / eta_i: IOR beyond the interface over IOR on the side of w_i"
         conv["transmission"] = "energy form: T = int f_t |cos theta_o| dw_o, R + T -> 1 as alpha -> 0"

@@ -76,5 +76,28 @@ from .fresnel import (
 from .bsdf import brdf, btdf
 from .multiscatter import kc_f_ms, kc_F_ms, kc_lobe, kc_C, fresnel_avg, lerp_grid_1d, lerp_grid_2d
 from .ltc import ltc_edge, ltc_eval, ltc_minv, ltc_polygon_integral, ltc_quad_integral
+from .charlie import (
+    CHARLIE_ALPHA_MIN,
+    charlie_D,
+    charlie_lambda_cos_exact,
+    charlie_lambda_exact,
+    charlie_lambda_fitted,
+    charlie_pdf,
+    charlie_projected_area,
+    charlie_projected_area_table,
+    charlie_sample,
+    charlie_V_ashikhmin,
+    charlie_V_exact,
+    charlie_V_fitted,
+)
+from .ggx_aniso import (
+    aniso_widths,
+    ggx_aniso_D,
+    ggx_aniso_G1,
+    ggx_aniso_lambda,
+    ggx_aniso_lambda_cos,
+    ggx_aniso_pdf_vndf,
+    ggx_aniso_sample_vndf,
+)
 
 __all__ = [name for name in dir() if not name.startswith("_")]

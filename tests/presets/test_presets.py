@@ -86,7 +86,9 @@ def test_ltc_preset_axes(name):
 def test_every_preset_has_expected_axes():
     from tests.presets.test_engine_presets import ENGINE_AXES  # the issue-15 engines, from their sources
 
-    assert set(EXPECTED_AXES) | set(ENGINE_AXES) | set(LTC_AXES) == set(PRESETS)
+    from tests.sheen.test_sheen_presets import SHEEN_AXES  # the sheen presets, from their sources
+
+    assert set(EXPECTED_AXES) | set(ENGINE_AXES) | set(LTC_AXES) | set(SHEEN_AXES) == set(PRESETS)
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED_AXES))
