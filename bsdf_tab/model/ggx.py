@@ -15,10 +15,11 @@ from typing import Any
 
 import warp as wp
 
+from .ggx_aniso import ggx_aniso_sample_vndf
+
 NAME = "ggx"
 DESCRIPTION = "GGX / Trowbridge-Reitz, alpha = alpha_g (Walter et al. 2007 eq. 33)"
 
-_TWO_PI = 6.283185307179586
 _HALF_PI = 1.5707963267948966
 
 
@@ -67,27 +68,11 @@ def ggx_lambda(cos_theta_v: Any, alpha: Any):
 
 @wp.func
 def ggx_sample_vndf(wi: Any, alpha: Any, u1: Any, u2: Any):
-    """Sample a visible micro-normal for ``wi`` (wi.z > 0), density G1 max(0, wi.m) D / wi.z."""
-    zero = type(alpha)(0.0)
-    one = type(alpha)(1.0)
-    if alpha <= zero:
-        # mirror: the only micro-normal is the macro normal
-        return type(wi)(zero, zero, one)
-    vh = wp.normalize(type(wi)(alpha * wi[0], alpha * wi[1], wi[2]))
-    lensq = vh[0] * vh[0] + vh[1] * vh[1]
-    t1 = type(wi)(one, zero, zero)
-    if lensq > zero:
-        # a tangent perpendicular to the stretched view (undefined at normal incidence)
-        t1 = type(wi)(-vh[1], vh[0], zero) / wp.sqrt(lensq)
-    t2 = wp.cross(vh, t1)
-    r = wp.sqrt(u1)
-    phi = type(alpha)(_TWO_PI) * u2
-    p1 = r * wp.cos(phi)
-    p2 = r * wp.sin(phi)
-    s = type(alpha)(0.5) * (one + vh[2])
-    p2 = (one - s) * wp.sqrt(wp.max(zero, one - p1 * p1)) + s * p2
-    nh = p1 * t1 + p2 * t2 + wp.sqrt(wp.max(zero, one - p1 * p1 - p2 * p2)) * vh
-    return wp.normalize(type(wi)(alpha * nh[0], alpha * nh[1], wp.max(zero, nh[2])))
+    """Sample a visible micro-normal for ``wi`` (wi.z > 0), density G1 max(0, wi.m) D / wi.z.
+
+    The isotropic case of :func:`~bsdf_tab.model.ggx_aniso.ggx_aniso_sample_vndf` (Heitz 2018).
+    """
+    return ggx_aniso_sample_vndf(wi, alpha, alpha, u1, u2)
 
 
 @wp.func
