@@ -31,9 +31,14 @@ MIN_CHUNK_TEXELS = 256
 MAX_CHUNK_TEXELS = 16384
 
 
+#: Chunks per worker: enough that the last chunks balance the workers (the texels' costs vary
+#: by several times), few enough that the per-task cost stays small (measured: bench/cluster.py).
+CHUNKS_PER_WORKER = 8
+
+
 def chunk_texels(total: int, n_workers: int) -> int:
-    """Texels per chunk: about four chunks per worker, within the bounds above."""
-    want = -(-total // max(1, 4 * n_workers))
+    """Texels per chunk: about :data:`CHUNKS_PER_WORKER` chunks per worker, within the bounds above."""
+    want = -(-total // max(1, CHUNKS_PER_WORKER * n_workers))
     return int(min(MAX_CHUNK_TEXELS, max(MIN_CHUNK_TEXELS, want)))
 
 
