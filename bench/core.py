@@ -6,6 +6,18 @@ writes ``bench/out/core.json``. Times are wall-clock seconds after the Warp kern
 baseline evaluates the same integrand with a fixed composite Gauss-Legendre rule; its node count
 is raised until its maximum difference to the adaptive result is below 1e-6 (or the sweep ends),
 and the ratio is taken at that node count.
+
+Where the time goes (``--cost``, on by default): each case's texels are integrated again with
+the adaptive kernel's counters (``integrate_texels(..., return_cost="detail")``; the same
+texels, parameters and values as the table, asserted), and the run reports integrand
+evaluations per texel (mean, max, a histogram in powers of two), the time per evaluation (the
+table's time over its evaluations, all workers), the split into the outer floor (the initial v
+intervals: breakpoints, theta_m = k pi/16, pieces <= 1/8) against outer bisections, each
+divided into inner first rules and inner bisections, and the mean cost of the hard texels
+(grazing mu < 0.05, near-mirror alpha < 0.02, eta within 5% of 1, eta < 1). Evaluation counts
+are deterministic; times move with the machine's load. ``--variant KEY=VALUE`` (repeatable)
+also counts the same texels with other integrator keywords (e.g. ``inner_share=0.5``), in the
+same run, for before/after comparisons.
 """
 
 from __future__ import annotations
@@ -71,13 +83,88 @@ def _flat(table, mode):
     return mu, alpha, eta, values
 
 
-def run(quick: bool) -> dict:
-    bsdf_tab.tabulate({"table": "albedo", "axes": {"mu": [0.5], "alpha": [0.5]}})  # compile
+def _kw(table, spec):
+    from bsdf_tab.spec import normalize_spec
+    from bsdf_tab.tables._common import integrator_params
+
+    kw = integrator_params(normalize_spec(spec))
+    return {k: kw[k] for k in ("dist", "shadowing", "ftype", "fp0", "fp1", "tol") if k in kw}
+
+
+def cost_report(table, spec, mode, t_warp, variants=()):
+    """Evaluation counts of one case's texels (see the module docstring)."""
+    from bsdf_tab.integrate.adaptive import integrate_texels
+
+    mu, alpha, eta, ours = _flat(table, mode)
+    kw = _kw(table, spec)
+    v, _, detail = integrate_texels(mode, mu, alpha, eta, return_cost="detail", **kw)
+    same = float(np.max(np.abs(v[:, : ours.shape[1]].astype(np.float32) - ours.astype(np.float32))))
+    cost = detail.sum(1)
+    total = float(cost.sum())
+    hist = np.bincount(np.floor(np.log2(np.maximum(cost, 1))).astype(int))
+    groups = {
+        "grazing mu<0.05": mu < 0.05,
+        "near-mirror alpha<0.02": (alpha > 0) & (alpha < 0.02),
+        "eta within 5% of 1": np.abs(eta - 1.0) < 0.05 if mode == "dielectric" else np.zeros(mu.size, bool),
+        "eta<1": eta < 1.0,
+        "other": (mu >= 0.05) & ((alpha >= 0.02) | (alpha == 0)),
+    }
+    out = {
+        "tol": kw.get("tol"),
+        "evals_mean": float(cost.mean()),
+        "evals_max": int(cost.max()),
+        "evals_total": total,
+        "histogram_log2": {f"{2**k}-{2**(k + 1) - 1}": int(c) for k, c in enumerate(hist) if c},
+        "ns_per_eval": 1e9 * t_warp / max(total, 1.0),
+        "split": dict(zip(
+            ("outer_floor.inner_first", "outer_floor.inner_bisect", "outer_bisect.inner_first",
+             "outer_bisect.inner_bisect"), (float(x) for x in detail.sum(0) / max(total, 1.0)))),
+        "groups_mean": {g: float(cost[m].mean()) for g, m in groups.items() if m.any()},
+        "max_diff_to_table_float32": same,
+        "variants": {},
+    }
+    for var in variants:
+        vkw = dict(kw)
+        vkw.update(var)
+        t0 = time.perf_counter()
+        vv, ee, dd = integrate_texels(mode, mu, alpha, eta, return_cost="detail", **vkw)
+        tv = time.perf_counter() - t0
+        c2 = dd.sum(1)
+        out["variants"][json.dumps(var)] = {
+            "evals_mean": float(c2.mean()), "evals_max": int(c2.max()), "time_s": tv,
+            "max_diff_to_default": float(np.max(np.abs(vv - v))), "max_reported_error": float(ee.max()),
+        }
+    return out
+
+
+def _print_cost(name, c):
+    split = " ".join(f"{k}={v:.0%}" for k, v in c["split"].items())
+    print(f"  {name}: evals/texel mean {c['evals_mean']:.0f} max {c['evals_max']}, "
+          f"{c['ns_per_eval']:.0f} ns/eval; {split}")
+    print("    histogram: " + ", ".join(f"{k}: {v}" for k, v in c["histogram_log2"].items()))
+    print("    groups: " + ", ".join(f"{k} {v:.0f}" for k, v in c["groups_mean"].items()))
+    for k, v in c["variants"].items():
+        print(f"    variant {k}: mean {v['evals_mean']:.0f} max {v['evals_max']} ({v['evals_mean'] / c['evals_mean']:.2f}x), "
+              f"{v['time_s']:.2f} s, max |diff| {v['max_diff_to_default']:.1e}, max err {v['max_reported_error']:.1e}")
+
+
+def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, numpy_baseline_on=True) -> dict:
+    bsdf_tab.tabulate({"table": "albedo", "axes": {"mu": [0.5], "alpha": [0.5]}}, device=device)  # compile
     sizes = (8, 16, 32) if quick else (8, 16, 24, 32, 48, 64)
     rows = []
     for name, spec, mode in CASES:
         spec = json.loads(json.dumps(spec))
-        t_warp, table = _time(lambda: bsdf_tab.tabulate(spec))
+        if tol is not None:
+            spec["tolerance"] = tol
+        t_warp, table = _time(lambda: bsdf_tab.tabulate(spec, device=device))
+        if not numpy_baseline_on:
+            rows.append({"case": name, "texels": int(np.prod([len(a) for a in table.axes.values()])),
+                         "warp_time_s": t_warp, "warp_max_error_estimate": max(table.max_error().values())})
+            if cost:
+                rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants)
+                print(f"{name:<24} {t_warp:>8.3f} s", flush=True)
+                _print_cost(name, rows[-1]["cost"])
+            continue
         mu, alpha, eta, ours = _flat(table, mode)
         keep = alpha > 0  # alpha = 0 texels are closed forms for us; the baseline skips them
         dist = spec.get("distribution", "ggx")
@@ -102,6 +189,9 @@ def run(quick: bool) -> dict:
             }
         )
         print(_row(rows[-1]), flush=True)
+        if cost:
+            rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants)
+            _print_cost(name, rows[-1]["cost"])
     return {
         "machine": {"platform": platform.platform(), "cores": default_workers()},
         "target": TARGET,
@@ -122,9 +212,23 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller NumPy node sweep")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "out" / "core.json"))
+    parser.add_argument("--no-cost", action="store_true", help="skip the evaluation counts")
+    parser.add_argument("--no-numpy", action="store_true", help="skip the NumPy baseline (counts and times only)")
+    parser.add_argument("--tol", type=float, default=None, help="the tables' tolerance (default: the spec's)")
+    parser.add_argument("--device", default=None, help="Warp device, e.g. cuda:0 (default: cpu)")
+    parser.add_argument("--variant", action="append", default=[], metavar="KEY=VALUE[,KEY=VALUE]",
+                        help="also count the texels with these integrate_texels keywords")
     args = parser.parse_args(argv)
+    variants = []
+    for v in args.variant:
+        d = {}
+        for kv in v.split(","):
+            k, val = kv.split("=")
+            d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
+        variants.append(d)
     print(f"{'case':<24} {'texels':>6} {'warp s':>8} {'max err':>10} {'numpy s':>9} {'n':>5} {'np diff':>9} {'ratio':>8}")
-    result = run(args.quick)
+    result = run(args.quick, cost=not args.no_cost, variants=variants, tol=args.tol, device=args.device,
+                 numpy_baseline_on=not args.no_numpy)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as fh:
         json.dump(result, fh, indent=2)

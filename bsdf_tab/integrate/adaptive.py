@@ -25,7 +25,9 @@ critical-angle crossings).
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
 sum meets the budget: a quarter of the tolerance for the inner integrals, the rest for the outer
 one). The outer integral starts from the breakpoints above, fixed angles theta_m = k pi/16 (the
-v map packs theta_m >> alpha into a sliver near v = 1), and pieces no longer than 1/8 in v.
+v map packs theta_m >> alpha into a sliver near v = 1), and pieces no longer than
+``max_piece`` = 1/4 in v (1/8 before issue 14: the same errors on the held-out set, 8% more
+evaluations at tolerance 5e-7 and 25% more at 1e-3; see docs/methods.md).
 
 Error estimate: per rule, QUADPACK's rescaling of |K15 - G7| (err_model 1, default) or
 |K15 - G7| itself (err_model 0), summed over the accepted intervals, plus the inner estimates
@@ -219,7 +221,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
     if ss <= wp.float64(1.0e-300):
         # i.m does not depend on phi (normal incidence or m = n): constant integrand
         f = integrand_phi(p, cm, sm, tm, wp.float64(0.5) * pi)
-        return f * pi, err, int(1)
+        return f * pi, err, int(1), int(0)
     c_min = p.mu * cm - ss
     c_max = p.mu * cm + ss
     cuts = _vec6d()
@@ -258,6 +260,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
         c_floor = wp.min(c_floor, t_floor)
     a = zero
     rules = int(0)
+    rules_ref = int(0)
     for q in range(nc + 1):
         b = pi
         if q < nc:
@@ -266,13 +269,14 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
             # phi increases as i.m decreases: this piece and all later ones are empty
             break
         if b > a:
-            r, e, used = _adaptive_piece(p, _vec5d(cm, sm, tm, a, b), wp.vec2d(zero, one), 1,
-                                         tol * (b - a) / pi, max_rules)
+            r, e, used, used_ref = _adaptive_piece(p, _vec5d(cm, sm, tm, a, b), wp.vec2d(zero, one), 1,
+                                                   tol * (b - a) / pi, max_rules, int(0))
             total += r
             err += e
             rules += used
+            rules_ref += used_ref
         a = b
-    return total, err, rules
+    return total, err, rules, rules_ref
 
 
 @wp.func
@@ -280,7 +284,7 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
     """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v), x = (tol_in, max_rules_inner).
 
     v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`).
-    Returns (K, error incl. the inner estimates, inner rule applications)."""
+    Returns (K, error incl. the inner estimates, (inner rule applications, of which bisections))."""
     tol_in = x[0]
     max_rules = int(x[1])
     half = wp.float64(0.5)
@@ -292,7 +296,7 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
     ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     f0 = _vec16d()
     f1 = _vec16d()
-    rules = int(0)
+    rules = wp.vec2i(0, 0)
     for j in range(15):
         jj = j
         sgn = one
@@ -304,8 +308,8 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
         cm = one / wp.sqrt(one + tm * tm)
         sm = tm * cm
         jac = wp.float64(2.0) * (one - v)
-        f, e, used = _inner(p, cm, sm, tm, tol_in / jac, max_rules)
-        rules += used
+        f, e, used, used_ref = _inner(p, cm, sm, tm, tol_in / jac, max_rules)
+        rules += wp.vec2i(used, used_ref)
         f = f * jac
         f0[j] = f[0]
         f1[j] = f[1]
@@ -342,14 +346,19 @@ def texel_kernel(
     err_model: wp.int32,
     max_rules_outer: wp.int32,
     max_rules_inner: wp.int32,
+    inner_share: wp.float64,
+    max_piece: wp.float64,
+    n_fixed: wp.int32,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
+    detail: wp.array2d(dtype=wp.int32),
 ):
     i, p, done = begin_texel(wp.tid(), idx, mu_a, alpha_a, eta_a, mode, dist, shadowing, ftype, fp0, fp1, value, error)
     if done:
         # alpha = 0: the mirror limit is stored, one evaluation
         cost[i] = 1
+        detail[i, 0] = 1
         return
     p.err_model = err_model
     zero = wp.float64(0.0)
@@ -376,8 +385,8 @@ def texel_kernel(
         cands, ncand = _transmission_breaks(p, theta_i, cands, ncand)
     # fixed angles too: the v map packs theta_m >> alpha into the last ~alpha of [0, 1], where a
     # single rule could otherwise step over the horizon structure without noticing it
-    for q in range(7):
-        cands[ncand] = wp.float64(q + 1) * _HALF_PI / wp.float64(8.0)
+    for q in range(wp.min(n_fixed, 24 - ncand)):
+        cands[ncand] = wp.float64(q + 1) * _HALF_PI / wp.float64(n_fixed + 1)
         ncand += 1
     for q in range(ncand):
         x = cands[q]
@@ -391,8 +400,8 @@ def texel_kernel(
     # split the budget: a quarter for the inner phi integrals (summed through the outer weights,
     # at most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * _PI
-    tol_in = wp.float64(0.25) * tol_total
-    # initial intervals: the pieces between the breakpoints, none longer than 1/8 in v
+    tol_in = inner_share * tol_total
+    # initial intervals: the pieces between the breakpoints, none longer than max_piece in v
     ends = _vec32d()
     ends[0] = zero
     ne = int(1)
@@ -400,22 +409,28 @@ def texel_kernel(
         vb = v_end
         if q < nt:
             vb = wp.min(dcos_v_of_theta(th[q], p.alpha, p.dist), v_end)
-        while vb - ends[ne - 1] > wp.float64(0.125) and ne < 30:
-            ends[ne] = ends[ne - 1] + wp.float64(0.125)
+        while vb - ends[ne - 1] > max_piece and ne < 30:
+            ends[ne] = ends[ne - 1] + max_piece
             ne += 1
         if vb > ends[ne - 1] and vb <= v_end and ne < 31:
             ends[ne] = vb
             ne += 1
     ne -= 1
-    total, err, rules = _adaptive_outer(p, wp.vec2d(tol_in, wp.float64(max_rules_inner)), ends, ne, tol_total,
-                                        max_rules_outer)
+    total, err, rules, rules_ref = _adaptive_outer(p, wp.vec2d(tol_in, wp.float64(max_rules_inner)), ends, ne,
+                                                   tol_total, max_rules_outer, wp.vec2i(0, 0))
     value[i, 0] = total[0] / _PI
     value[i, 1] = total[1] / _PI
     # floor: float64 accumulation over ~1e5 terms is not trusted below 1e-10 absolute
     error[i, 0] = wp.max(err[0] / _PI, _ERR_FLOOR)
     error[i, 1] = wp.max(err[1] / _PI, _ERR_FLOOR)
     # integrand evaluations: 15 per inner rule application
-    cost[i] = rules * 15
+    cost[i] = rules[0] * 15
+    # where they went: (outer floor, outer bisections) x (inner first rules, inner bisections)
+    fl = rules - rules_ref
+    detail[i, 0] = (fl[0] - fl[1]) * 15
+    detail[i, 1] = fl[1] * 15
+    detail[i, 2] = (rules_ref[0] - rules_ref[1]) * 15
+    detail[i, 3] = rules_ref[1] * 15
 
 
 def integrate_texels(
@@ -436,7 +451,10 @@ def integrate_texels(
     err_model: int = 1,
     max_rules_outer: int = 400,
     max_rules_inner: int = 200,
-    return_cost: bool = False,
+    inner_share: float = 0.25,
+    max_piece: float = 0.25,
+    n_fixed: int = 7,
+    return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
 
@@ -448,13 +466,22 @@ def integrate_texels(
         Flat float64 arrays of the same length; ``eta`` only for "dielectric".
     tol : float
         Target absolute error per texel and channel.
+    inner_share, max_piece, n_fixed : float, float, int
+        The floor and the budget (benchmarks and experiments): the share of the tolerance given
+        to the inner phi integrals (0.25), the longest initial outer piece in v (0.25), and the
+        number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
+        breakpoints (7).
 
     Returns
     -------
     values, errors : ndarray, shape (N, 2)
         Channel 0 / 1 are (E, 0), (R, T) or (A, B); errors are the per-texel estimates.
     cost : ndarray of int, shape (N,)
-        Integrand evaluations per texel (only with ``return_cost=True``).
+        Integrand evaluations per texel (only with ``return_cost=True``). With
+        ``return_cost="detail"`` an (N, 4) array instead, the evaluations split by where they
+        were spent: [outer initial intervals (the floor) x inner first rules, outer floor x
+        inner bisections, outer bisections x inner first rules, outer bisections x inner
+        bisections]; its rows sum to the plain cost.
     """
     dev = resolve_device(device)
     check_workers(workers)
@@ -464,6 +491,7 @@ def integrate_texels(
     value = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     error = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     cost = wp.zeros(n, dtype=wp.int32, device=dev)
+    detail = wp.zeros((n, 4), dtype=wp.int32, device=dev)
 
     def launch(idx):
         wp.launch(
@@ -472,7 +500,7 @@ def integrate_texels(
             inputs=[
                 idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
-                value, error, cost,
+                float(inner_share), float(max_piece), int(n_fixed), value, error, cost, detail,
             ],
             device=dev,
         )
@@ -480,6 +508,8 @@ def integrate_texels(
     # interleave the texels so that expensive ones (grazing mu) spread over the workers
     order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 else None
     run_chunks(n, launch, dev, workers=workers, progress=progress, order=order)
+    if return_cost == "detail":
+        return value.numpy(), error.numpy(), detail.numpy()
     if return_cost:
         return value.numpy(), error.numpy(), cost.numpy()
     return value.numpy(), error.numpy()

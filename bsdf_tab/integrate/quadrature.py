@@ -69,7 +69,7 @@ def gk_error(rk: wp.vec2d, rg: wp.vec2d, resasc: wp.vec2d, err_model: wp.int32):
 
 
 def make_global_bisection(rule):
-    """A ``@wp.func`` ``bisect(p, x, ends, ne, tol, max_rules)`` running global adaptivity with ``rule``.
+    """A ``@wp.func`` ``bisect(p, x, ends, ne, tol, max_rules, cost0)``: global adaptivity with ``rule``.
 
     ``rule(p, x, a, b)`` returns (K, error, cost) of one rule application over [a, b] (two
     channels; ``x`` carries the rule's own parameters, any type). ``bisect`` starts from the
@@ -77,11 +77,13 @@ def make_global_bisection(rule):
     bisects the interval with the largest error (the larger of its two channels) while either
     channel's summed error exceeds ``tol``, ``used + 2 <= max_rules`` rule applications and the
     :data:`STACK` capacity allow. A texel stopped by a cap keeps its large estimate: the error
-    stays honest. Returns (sum of K, sum of errors, sum of the rules' costs).
+    stays honest. ``cost0`` is the zero of the rules' cost type (an int, or a vector of counters).
+    Returns (sum of K, sum of errors, sum of the rules' costs, the part of that sum spent by the
+    bisections: the cost beyond the initial intervals, the "refinement").
     """
 
     @wp.func
-    def bisect(p: Any, x: Any, ends: Any, ne: wp.int32, tol: wp.float64, max_rules: wp.int32):
+    def bisect(p: Any, x: Any, ends: Any, ne: wp.int32, tol: wp.float64, max_rules: wp.int32, cost0: Any):
         zero = wp.float64(0.0)
         ia = stackd()
         ib = stackd()
@@ -91,7 +93,8 @@ def make_global_bisection(rule):
         e1 = stackd()
         n = int(0)
         used = int(0)
-        cost = int(0)
+        cost = cost0
+        cost_ref = cost0
         te = wp.vec2d(zero, zero)
         for q in range(ne):
             if ends[q + 1] > ends[q]:
@@ -119,6 +122,7 @@ def make_global_bisection(rule):
             rr, er, cr = rule(p, x, mid, ib[j])
             used += 2
             cost += cl + cr
+            cost_ref += cl + cr
             te += el + er - wp.vec2d(e0[j], e1[j])
             ia[n] = mid
             ib[n] = ib[j]
@@ -137,7 +141,7 @@ def make_global_bisection(rule):
         for q in range(n):
             total += wp.vec2d(v0[q], v1[q])
             err += wp.vec2d(e0[q], e1[q])
-        return total, err, cost
+        return total, err, cost, cost_ref
 
     return bisect
 

@@ -145,8 +145,8 @@ def _fresnel_dielectric_err(ci: wp.float64, dc: wp.float64, eta: wp.float64):
             return zero
         s2 = wp.max(one - c2, wp.float64(1.0e-300))  # > 0: g2 <= 0 needs s2 >= eta^2 - tiny
         k = two / wp.max(c, wp.float64(1.0e-300)) + two * c / s2  # c > 0 guarded
-        return wp.min(one, k * two * wp.sqrt(e_tot))
-    g = wp.sqrt(g2)
+        return wp.min(one, k * two * wp.sqrt(e_tot))  # e_tot >= 0: a sum of bounds
+    g = wp.sqrt(g2)  # g2 > 0 in this branch
     gp = g + c  # > 0: g > 0 here
     gm = g - c
     # --- rounding (running error analysis, input c exact)
@@ -170,7 +170,7 @@ def _fresnel_dielectric_err(ci: wp.float64, dc: wp.float64, eta: wp.float64):
     f = wp.float64(0.5) * aa * ob
     e_round = wp.float64(0.5) * (ob * e_aa + aa * e_ob) + eps * f
     # --- input: exact derivative in c, g floored at the square-root scale of the perturbation
-    ge = wp.max(g, wp.sqrt(two * c * dc))
+    ge = wp.max(g, wp.sqrt(two * c * dc))  # c, dc >= 0
     if ge <= zero:
         # c = 0 and dc = 0: the input is exact
         return e_round
@@ -209,11 +209,11 @@ def _fresnel_conductor_err(ci: wp.float64, dc: wp.float64, eta: wp.float64, k: w
     q4 = wp.float64(4.0) * ee * kk
     q = t0 * t0 + q4
     e_q = two * wp.abs(t0) * e_t0 + eps * (t0 * t0 + wp.float64(4.0) * q4 + q)
-    r = wp.sqrt(q)
+    r = wp.sqrt(q)  # q >= 0: a sum of squares
     e_r = _sqrt_err(q, e_q) + eps * r
     u = wp.max(zero, half * (r + t0))
     e_u = half * (e_r + e_t0) + eps * (r + wp.abs(t0))
-    a = wp.sqrt(u)
+    a = wp.sqrt(u)  # u >= 0 (max above)
     e_a = _sqrt_err(u, e_u) + eps * a
     ac = two * a * c
     e_ac = two * (c * e_a + a * dc) + two * eps * ac

@@ -79,20 +79,21 @@ _bisect = make_global_bisection(_rule)
 def _bisect_kernel(ends: wp.array(dtype=wp.vec4d), ne: wp.array(dtype=wp.int32), tol: wp.float64,
                    max_rules: wp.array(dtype=wp.int32), out: wp.array2d(dtype=wp.float64)):
     t = wp.tid()
-    total, err, cost = _bisect(wp.vec2d(wp.float64(0.0), wp.float64(0.0)), wp.float64(0.0), ends[t], ne[t], tol,
-                               max_rules[t])
+    total, err, cost, cost_ref = _bisect(wp.vec2d(wp.float64(0.0), wp.float64(0.0)), wp.float64(0.0), ends[t],
+                                         ne[t], tol, max_rules[t], int(0))
     out[t, 0] = total[0]
     out[t, 1] = total[1]
     out[t, 2] = err[0]
     out[t, 3] = err[1]
     out[t, 4] = wp.float64(cost)
+    out[t, 5] = wp.float64(cost_ref)
 
 
 def _run(cases, tol):
     ends = wp.array([np.array(c[0], dtype=np.float64) for c in cases], dtype=wp.vec4d, device="cpu")
     ne = wp.array([c[1] for c in cases], dtype=wp.int32, device="cpu")
     mr = wp.array([c[2] for c in cases], dtype=wp.int32, device="cpu")
-    out = wp.zeros((len(cases), 5), dtype=wp.float64, device="cpu")
+    out = wp.zeros((len(cases), 6), dtype=wp.float64, device="cpu")
     wp.launch(_bisect_kernel, dim=len(cases), inputs=[ends, ne, tol, mr, out], device="cpu")
     return out.numpy()
 
@@ -110,6 +111,9 @@ def test_global_bisection_meets_the_tolerance_honestly(tol):
         val, err, cost = out[k, :2], out[k, 2:4], out[k, 4]
         assert np.all(np.abs(val - exact) <= err + 1e-15), (k, val - exact, err)
         assert cost <= max_rules
+        # refinement = everything beyond one rule per nonempty initial interval (bisections in pairs)
+        n_init = 1 if k != 1 else 2
+        assert out[k, 5] == cost - n_init and out[k, 5] % 2 == 0
         if max_rules >= 400:
             assert np.all(err <= tol), (k, err)
         else:
