@@ -70,6 +70,7 @@ class TexelParams:
     eta: wp.float64
     li: wp.float64  # mu * Lambda(mu)
     err_model: wp.int32  # adaptive only; 0: |K15 - G7|, 1: QUADPACK rescaling
+    err_model_inner: wp.int32  # adaptive only: the inner phi level's error model
 
 
 @wp.func
