@@ -149,3 +149,24 @@ def write_text(path, text: str, encoding: str = "utf-8") -> Path:
     with atomic_open(path, "w", encoding=encoding) as fh:
         fh.write(text)
     return Path(path)
+
+
+def bytes_writer(to_bytes):
+    """``write(table, path) -> [path]`` for a format whose file is its ``to_bytes(table)``, atomically."""
+
+    def write(table, path) -> list[Path]:
+        return [write_bytes(path, to_bytes(table))]
+
+    return write
+
+
+def bytes_reader(from_bytes):
+    """``read(path, factory=None)`` for a format read by ``from_bytes(data, factory, source=...)``."""
+
+    def read(path, factory=None):
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no such file: {path}")
+        return from_bytes(path.read_bytes(), factory, source=str(path))
+
+    return read

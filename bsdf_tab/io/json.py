@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-from .atomic import write_bytes
+from .atomic import bytes_reader, bytes_writer
 from .base import Format, build, json_default, shape_of
 
 __all__ = ["FORMAT", "to_json_dict", "json_bytes", "json_from_bytes", "write_json", "read_json", "finite_json"]
@@ -91,17 +90,9 @@ def json_from_bytes(data: bytes, factory: Callable | None = None, *, source: str
     return build(axes, channels, doc["meta"], factory)
 
 
-def write_json(table, path) -> list[Path]:
-    """Write the JSON file atomically; returns ``[path]``."""
-    return [write_bytes(path, json_bytes(table))]
-
-
-def read_json(path, factory: Callable | None = None):
-    """Read a table written by :func:`write_json`."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-    return json_from_bytes(path.read_bytes(), factory, source=str(path))
+#: atomic write and read of the whole file (:mod:`.atomic`)
+write_json = bytes_writer(json_bytes)
+read_json = bytes_reader(json_from_bytes)
 
 
 FORMAT = Format(

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_bytes
+from .atomic import bytes_writer
 from .base import Format, shape_of
 
 __all__ = ["FORMAT", "structured_array", "npy_bytes", "write_npy"]
@@ -50,9 +50,8 @@ def npy_bytes(table) -> bytes:
     return buf.getvalue()
 
 
-def write_npy(table, path) -> list[Path]:
-    """Write the structured ``.npy`` file atomically; returns ``[path]``."""
-    return [write_bytes(path, npy_bytes(table))]
+#: atomic write of the structured ``.npy`` file (:mod:`.atomic`); returns ``[path]``
+write_npy = bytes_writer(npy_bytes)
 
 
 FORMAT = Format(

@@ -19,12 +19,11 @@ from __future__ import annotations
 import io
 import json
 import zipfile
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from .atomic import write_bytes
+from .atomic import bytes_reader, bytes_writer
 from .base import Format, build, json_default
 
 __all__ = ["FORMAT", "head_members", "tail_members", "npz_bytes", "npz_from_bytes", "write_npz", "read_npz"]
@@ -84,17 +83,9 @@ def npz_from_bytes(data: bytes, factory: Callable | None = None, *, source: str 
     return build(axes, channels, meta, factory)
 
 
-def write_npz(table, path) -> list[Path]:
-    """Write ``table`` as a ``.npz`` archive atomically; returns ``[path]``."""
-    return [write_bytes(path, npz_bytes(table))]
-
-
-def read_npz(path, factory: Callable | None = None):
-    """Read a table written by :func:`write_npz` (see :func:`npz_from_bytes`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-    return npz_from_bytes(path.read_bytes(), factory, source=str(path))
+#: atomic write and read of the whole file (:mod:`.atomic`)
+write_npz = bytes_writer(npz_bytes)
+read_npz = bytes_reader(npz_from_bytes)
 
 
 FORMAT = Format(
