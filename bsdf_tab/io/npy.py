@@ -16,7 +16,6 @@ cannot be read back into a table. The same bytes in the CLI, presets and the ser
 from __future__ import annotations
 
 import io
-from pathlib import Path
 
 import numpy as np
 
