@@ -33,8 +33,10 @@ Replicas
 Several processes may share one folder (``bsdf-tab serve`` replicas, uvicorn workers).
 :meth:`DiskCache.key_lock` is an inter-process lock per key (``fcntl.flock`` on
 ``locks/<name>.lock``): the one process that holds it computes, the others poll the cache
-until the entry appears. The folder must be a local disk, or NFS with working locks
-(``flock`` over NFSv4 / lockd); atomic ``rename`` within the folder is required.
+until the entry appears. A lock file exists only while its key is being computed (the holder
+unlinks it on release), so the folder does not grow with the cache. The folder must be a local
+disk, or NFS with working locks (``flock`` over NFSv4 / lockd); atomic ``rename`` within the
+folder is required.
 
 Size cap
 --------
@@ -297,6 +299,12 @@ class KeyLock:
 
     :meth:`try_acquire` returns True when this process now holds it; :meth:`release` frees it.
     A crashed holder's lock is freed by the kernel with its file descriptors.
+
+    The lock file lives only while it is held: :meth:`release` unlinks it before unlocking, so
+    the ``locks/`` folder does not grow with every key ever computed. An acquirer therefore
+    checks, after ``flock`` succeeds, that the path still names the inode it locked (a file it
+    opened just before the holder unlinked it is stale: it retries on a fresh file). A crashed
+    holder leaves its file behind; the next holder of that key removes it.
     """
 
     def __init__(self, path: Path) -> None:
@@ -309,17 +317,21 @@ class KeyLock:
         if self._fd is not None:
             return True
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:  # another process computes this key
-            os.close(fd)
-            return False
-        except OSError:  # a folder without locks (some network mounts): say so, do not guess
-            os.close(fd)
-            raise
-        self._fd = fd
-        return True
+        for _ in range(_LOCK_RETRIES):  # each retry means a holder released between open and flock
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:  # another process computes this key
+                os.close(fd)
+                return False
+            except OSError:  # a folder without locks (some network mounts): say so, do not guess
+                os.close(fd)
+                raise
+            if _names_inode(self.path, fd):
+                self._fd = fd
+                return True
+            os.close(fd)  # we locked a file its holder had already unlinked: try the new one
+        return False  # keys released and retaken this fast are held: the caller polls again
 
     def release(self) -> None:
         import fcntl
@@ -328,9 +340,24 @@ class KeyLock:
             return
         fd, self._fd = self._fd, None
         try:
+            _unlink(self.path)  # while still held: nobody can take this inode after us
             fcntl.flock(fd, fcntl.LOCK_UN)
         finally:
             os.close(fd)
+
+
+#: how often :meth:`KeyLock.try_acquire` retries after locking an already unlinked lock file
+_LOCK_RETRIES = 8
+
+
+def _names_inode(path: Path, fd: int) -> bool:
+    """Whether ``path`` still refers to the open file ``fd`` (same device and inode)."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:  # unlinked by its holder after our open
+        return False
+    fst = os.fstat(fd)
+    return (st.st_dev, st.st_ino) == (fst.st_dev, fst.st_ino)
 
 
 class MemoryLRU:

@@ -230,3 +230,65 @@ def test_entries_are_bound_to_their_key_and_validated(tmp_path, counted):
         assert client.get(url_a).content == a.content
         health = client.get("/healthz").json()["cache"]
         assert health["invalid"] >= 4
+
+
+# ------------------------------------------------------------------ KeyLock
+
+
+def test_key_lock_excludes_and_leaves_no_file_behind(tmp_path):
+    c = DiskCache(tmp_path, 10_000)
+    a, b = c.key_lock("k.exr"), c.key_lock("k.exr")
+    assert a.try_acquire()
+    assert not b.try_acquire()  # held by another open file description
+    a.release()
+    assert not (tmp_path / "locks" / "k.exr.lock").exists()  # pruned on release
+    assert b.try_acquire()
+    b.release()
+    assert list((tmp_path / "locks").iterdir()) == []
+
+
+def test_key_lock_left_by_a_crashed_holder_is_taken_and_removed(tmp_path):
+    c = DiskCache(tmp_path, 10_000)
+    stale = tmp_path / "locks" / "k.exr.lock"
+    stale.parent.mkdir(parents=True)
+    stale.write_bytes(b"")  # a holder killed before release: its flock died with it
+    lock = c.key_lock("k.exr")
+    assert lock.try_acquire()
+    lock.release()
+    assert not stale.exists()
+
+
+def test_key_lock_stays_exclusive_when_holders_unlink_on_release(tmp_path):
+    """Many threads take and release one key; never two holders at once.
+
+    Each KeyLock opens its own file description, so flock excludes threads of one process as it
+    does processes. Without the inode check in try_acquire, a thread that opened the file just
+    before its holder unlinked it would lock the dead inode while another thread locks the new
+    file: two holders (this test then sees ``inside`` > 1).
+    """
+    c = DiskCache(tmp_path, 10_000)
+    inside, worst, acquired = [0], [0], [0]
+    guard = threading.Lock()
+
+    def worker():
+        for _ in range(400):  # bounded
+            lock = c.key_lock("k.exr")
+            if not lock.try_acquire():
+                continue
+            with guard:
+                inside[0] += 1
+                worst[0] = max(worst[0], inside[0])
+                acquired[0] += 1
+            os.sched_yield()
+            with guard:
+                inside[0] -= 1
+            lock.release()
+
+    threads = [threading.Thread(target=worker) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=60)
+    assert worst[0] == 1
+    assert acquired[0] > 0
+    assert not (tmp_path / "locks" / "k.exr.lock").exists()
