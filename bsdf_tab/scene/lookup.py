@@ -16,7 +16,7 @@ import numpy as np
 
 from ..spec import resolve_axis
 
-__all__ = ["AxisPlan", "lookup"]
+__all__ = ["AxisPlan", "lookup", "texels_read"]
 
 
 @dataclass
@@ -78,6 +78,27 @@ class AxisPlan:
         }
 
 
+def _texel(ax: AxisPlan, x: np.ndarray, interpolation: str, down: bool = False):
+    """(first texel index, weight of the next one or None) of coordinates ``x`` along ``ax``."""
+    t = ax.coord(x)
+    n = len(ax)
+    if ax.mode == "discrete" or n == 1 or interpolation == "nearest":
+        down = down and ax.mode == "interp"
+        return np.clip(np.ceil(t - 0.5) if down else np.floor(t + 0.5), 0, n - 1).astype(np.int64), None
+    i = np.clip(np.floor(t), 0, n - 2).astype(np.int64)
+    return i, t - i
+
+
+def texels_read(ax: AxisPlan, x, interpolation: str, both_ties: bool = False) -> np.ndarray:
+    """Sorted indices of the texels along ``ax`` that :func:`lookup` reads at coordinates ``x``
+    (linear: both neighbours, even one of weight 0; ``both_ties``: both sides of a nearest tie)."""
+    i, w = _texel(ax, np.asarray(x, dtype=np.float64), interpolation)
+    used = [i] if w is None else [i, i + 1]
+    if both_ties and w is None:
+        used.append(_texel(ax, np.asarray(x, dtype=np.float64), interpolation, True)[0])
+    return np.unique(np.concatenate([np.ravel(u) for u in used]))
+
+
 def lookup(values: np.ndarray, axes: list[AxisPlan], points: list[np.ndarray], interpolation: str,
            round_down: tuple[bool, ...] | None = None) -> np.ndarray:
     """Look a table up at points as a renderer does.
@@ -91,17 +112,9 @@ def lookup(values: np.ndarray, axes: list[AxisPlan], points: list[np.ndarray], i
     pts = np.broadcast_arrays(*[np.asarray(p, dtype=np.float64) for p in points])
     idx0, wts = [], []
     for k, (ax, p) in enumerate(zip(axes, pts)):
-        t = ax.coord(p)
-        n = len(ax)
-        if ax.mode == "discrete" or n == 1 or interpolation == "nearest":
-            down = round_down is not None and round_down[k] and ax.mode == "interp"
-            i = np.clip(np.ceil(t - 0.5) if down else np.floor(t + 0.5), 0, n - 1).astype(np.int64)
-            idx0.append(i)
-            wts.append(None)
-        else:
-            i = np.clip(np.floor(t), 0, n - 2).astype(np.int64)
-            idx0.append(i)
-            wts.append(t - i)
+        i, w = _texel(ax, p, interpolation, round_down is not None and round_down[k])
+        idx0.append(i)
+        wts.append(w)
     out = np.zeros(pts[0].shape)
     d = len(axes)
     for corner in range(1 << d):

@@ -39,20 +39,19 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import SpecError, TexelLimitError
+from ..errors import SpecError
 from ..spec import channel_names, normalize_spec
 from ..table import Table
-from .lookup import AxisPlan, lookup
+from .lookup import AxisPlan
 from .manifest import material_entry, plan_dict
 from .parse import MATERIAL_TABLES, check_lookup_tol, parse_scene
+from .search import MAX_CHECK_TEXELS, MAX_NODES, PLAN_MARGIN, search
+from .texels import TexelStore
 
-__all__ = ["ScenePlan", "TablePlan", "plan_scene", "FIXED_SIZES", "PLAN_MARGIN"]
+__all__ = ["ScenePlan", "TablePlan", "plan_scene", "FIXED_SIZES", "MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN"]
 
-PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
 INTEGRATION_DIVISOR = 20.0  # a table's integration tolerance: lookup_tol / INTEGRATION_DIVISOR
 MIN_INTEGRATION_TOL = 1e-9
-MAX_NODES = 1025
-MAX_CHECK_TEXELS = 300_000
 FIXED_SIZES = {"albedo": (32, 32), "dfg": (32, 32), "dielectric": (16, 16, 16)}
 
 
@@ -123,6 +122,8 @@ class ScenePlan:
     tables: list[TablePlan]
     materials: dict[str, dict]  # name -> manifest entry
     tabulate_calls: int = 0  # tabulations the planning ran (candidates, checks, comparisons)
+    texels_computed: int = 0  # texels those tabulations integrated (each texel once)
+    texels_requested: int = 0  # texels the checks read (repeats counted): what reuse saved
 
     @property
     def bytes(self) -> int:
@@ -190,9 +191,8 @@ def _table_spec(kind, dist, shadowing, fresnel, axes: dict, integration_tol: flo
 class _Cache:
     """Tables computed by :func:`bsdf_tab.api.tabulate` (the one path), memoized by spec."""
 
-    def __init__(self, device, workers, max_texels: int | None = None, scheduler=None):
+    def __init__(self, device, workers, scheduler=None):
         self.device, self.workers, self.scheduler = device, workers, scheduler
-        self.max_texels = max_texels
         self.tables: dict[str, Any] = {}
         self.calls = 0
 
@@ -237,164 +237,23 @@ def _rough_entries(mats: list[dict], name: str) -> list[dict]:
     return out
 
 
-def _combine(kind: str, diffs: dict, errs: dict) -> np.ndarray:
-    """Per-point lookup error from per-channel lookup differences and integration errors."""
-    if kind == "dfg":
-        # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
-        return np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
-    return np.max([np.abs(diffs[ch]) + errs[ch] for ch in diffs], axis=0)
+def _plan_table(plan: TablePlan, spacings: list[str], lookup_tol: float, interpolation: str, store: TexelStore,
+                max_texels: int | None, log: Callable[[str], None] | None = None) -> None:
+    """Search the smallest candidate (:func:`.search.search`), bake it from the verified texels,
+    and compare the fixed-size alternative at the same check points."""
+    from ..api import table_meta  # at call time: the api loads Warp
 
-
-def _fine_grid(fine, kind: str) -> tuple[list[np.ndarray], dict, dict]:
-    """The check points of a refined table (meshgrid), its values and error channels."""
-    grids = np.meshgrid(*[np.asarray(v) for v in fine.axes.values()], indexing="ij")
-    vals = {ch: np.asarray(fine.channels[ch], dtype=np.float64) for ch in channel_names(kind)}
-    errs = {ch: np.asarray(fine.channels[ch + "_err"], dtype=np.float64) for ch in vals}
-    return grids, vals, errs
-
-
-def _errors(plan: TablePlan, fine, interpolation: str, sizes: list[int]) -> tuple[float, list[float]]:
-    """Lookup error of the candidate (every other node of ``fine`` on interp axes) at the fine points.
-
-    Returns (max error overall, per interp axis the max error at points that are midpoints along
-    that axis only); integration error of the fine values included.
-    """
-    interp = [i for i, a in enumerate(plan.axes) if a.mode == "interp"]
-    sl = tuple(slice(None, None, 2) if a.mode == "interp" else slice(None) for a in plan.axes)
-    grids, vals, errs = _fine_grid(fine, plan.kind)
-    d = len(plan.axes)
-    # nearest: every texel that can be nearest to a cell boundary point (ties either way)
-    modes = [None] if interpolation != "nearest" else [tuple(bool((c >> k) & 1) for k in range(d)) for c in range(1 << d)]
-    total = np.zeros(grids[0].shape)
-    for m in modes:
-        diffs = {ch: lookup(v[sl], plan.axes, grids, interpolation, m) - v for ch, v in vals.items()}
-        total = np.maximum(total, _combine(plan.kind, diffs, errs))
-    per_axis = []
-    for a in interp:
-        mask = np.ones(total.shape, dtype=bool)
-        for b in interp:
-            odd = (np.arange(total.shape[b]) % 2 == 1) if b == a else (np.arange(total.shape[b]) % 2 == 0)
-            shape = [1] * total.ndim
-            shape[b] = -1
-            mask &= odd.reshape(shape)
-        per_axis.append(float(total[mask].max()) if mask.any() else 0.0)
-    return float(total.max()), per_axis
-
-
-def _fixed_error(plan: TablePlan, fine, interpolation: str, cache: "_Cache") -> float:
-    """Lookup error of the fixed-size alternative (:meth:`TablePlan.fixed_axes`, read with the
-    scene's interpolation) at the points that verified the plan."""
-    axes = plan.fixed_axes()
-    fixed = cache(_table_spec(plan.kind, plan.distribution, plan.shadowing, plan.fresnel,
-                              {a.name: a.spec() for a in axes}, plan.integration_tol))
-    grids, vals, errs = _fine_grid(fine, plan.kind)
-    diffs = {ch: lookup(np.asarray(fixed.channels[ch], dtype=np.float64), axes, grids, interpolation) - v
-             for ch, v in vals.items()}
-    fixed_err = {ch: np.max(np.asarray(fixed.channels[ch + "_err"], dtype=np.float64)) for ch in vals}
-    return float(np.max(_combine(plan.kind, diffs, errs))) + max(fixed_err.values())
-
-
-def _check(plan: TablePlan, combo, sizes, interpolation: str, cache: _Cache):
-    """Verify one candidate (spacings ``combo``, node counts ``sizes`` of the interp axes).
-
-    Tabulates the refined grid (every cell midpoint added) and returns (max error, per-axis
-    midpoint errors, the fine table), None past the caps, or "limit" when the candidate itself
-    has more texels than ``cache.max_texels`` (checked before anything is computed).
-    """
-    if cache.max_texels is not None:
-        own = int(np.prod(sizes)) * int(np.prod([len(a.values) for a in plan.axes if a.mode != "interp"]))
-        if own > cache.max_texels:
-            return "limit"
-    fine_axes = {}
-    it = iter(zip(combo, sizes))
-    for a in plan.axes:
-        if a.mode == "interp":
-            sp, n = next(it)
-            fine_axes[a.name] = {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": list(a.range)}
-        else:
-            fine_axes[a.name] = list(a.values)
-    texels = int(np.prod([v["size"] if isinstance(v, dict) else len(v) for v in fine_axes.values()]))
-    if texels > MAX_CHECK_TEXELS or any(n > MAX_NODES for n in sizes):
-        return None
-    fine = cache(_table_spec(plan.kind, plan.distribution, plan.shadowing, plan.fresnel, fine_axes, plan.integration_tol))
-    trial = [AxisPlan(a.name, a.mode, a.values, a.range) for a in plan.axes]
-    it = iter(zip(combo, sizes))
-    for a in trial:
-        if a.mode == "interp":
-            a.spacing, a.size = next(it)
-    probe = TablePlan(plan.file, plan.kind, plan.distribution, plan.shadowing, plan.fresnel, trial, [], plan.integration_tol)
-    total, per_axis = _errors(probe, fine, interpolation, list(sizes))
-    return total, per_axis, fine
-
-
-def _plan_table(plan: TablePlan, spacings: list[str], lookup_tol: float, interpolation: str, cache: _Cache,
-                log: Callable[[str], None] | None = None) -> None:
-    """Best-first search over (spacing combination, doubling-ladder sizes).
-
-    Every spacing combination starts at 2 nodes per interpolated axis; the candidate with the
-    fewest texels is verified next (ties: the earlier combination); a failing candidate doubles
-    its axis whose midpoints err most. The first candidate verified below ``PLAN_MARGIN * lookup_tol``
-    is the smallest on the ladder.
-    """
-    interp = [a for a in plan.axes if a.mode == "interp"]
-    combos: list[tuple] = [()]
-    for a in interp:
-        opts = spacings if a.range[0] >= 0.0 else ["linear"]
-        combos = [c + (sp,) for c in combos for sp in opts]
-    target = PLAN_MARGIN * lookup_tol
-    frontier = [(1 if not interp else 2 ** len(interp), ci, tuple(2 for _ in interp)) for ci in range(len(combos))]
-    best = None
-    limited = False
-    while frontier:
-        frontier.sort()
-        texels, ci, sizes = frontier.pop(0)
-        res = _check(plan, combos[ci], sizes, interpolation, cache)
-        if res == "limit":
-            limited = True
-            continue
-        if res is None:
-            continue
-        total, per_axis, fine = res
-        if log is not None:
-            shape = " x ".join(f"{a.name} {n} {sp}" for a, n, sp in zip(interp, sizes, combos[ci])) or "discrete axes only"
-            log(f"{plan.file}: {shape}: lookup error {total:.3g} ({'ok' if total <= target else 'refine'}; "
-                f"target {target:.3g})")
-        if total <= target or not interp:
-            best = (combos[ci], sizes, total, fine)
-            break
-        worst = int(np.argmax(per_axis))
-        grown = tuple(2 * n - 1 if k == worst else n for k, n in enumerate(sizes))
-        frontier.append((int(np.prod(grown)), ci, grown))
-    if best is None and limited:
-        raise TexelLimitError(
-            "tol",
-            f"table {plan.file} cannot reach a lookup error of {lookup_tol:g} within the limit of "
-            f"{cache.max_texels} texels per table; loosen tol",
-            limit=cache.max_texels,
-        )
-    if best is None:
-        raise SpecError(
-            "tol",
-            f"cannot reach a lookup error of {lookup_tol:g} for table {plan.file} within {MAX_NODES} nodes per "
-            f"axis ({MAX_CHECK_TEXELS} check texels); loosen tol",
-        )
-    combo, sizes, err, fine = best
-    for a, s, n in zip(interp, combo, sizes):
-        a.spacing, a.size = s, n
+    trial, err, verifier = search(plan, spacings, lookup_tol, interpolation, store, max_texels, log)
+    plan.axes = trial
     plan.max_error = err
-    # the planned table: the nodes of the verified fine grid at even indices (nested ladder)
-    sl = tuple(slice(None, None, 2) if a.mode == "interp" else slice(None) for a in plan.axes)
-    axes = {a.name: a.nodes() for a in plan.axes}
-    channels = {c: np.ascontiguousarray(np.asarray(v)[sl]) for c, v in fine.channels.items()}
-    meta = dict(fine.meta)
-    meta["spec"] = normalize_spec(plan.spec())
-    table = Table(axes=axes, channels=channels, meta=meta)
-    meta["max_error"] = table.max_error()
-    meta["lookup_max_error"] = err
+    channels = {c: np.ascontiguousarray(v) for c, v in verifier.values([a.nodes() for a in trial]).items()}
+    table = Table(axes={a.name: a.nodes() for a in trial}, channels=channels, meta={})
+    table.meta = table_meta(normalize_spec(plan.spec()), table.max_error())
+    table.meta["lookup_max_error"] = err
     plan.table = table
-    if cache.max_texels is not None and int(np.prod(plan.fixed_shape)) > cache.max_texels:
+    if max_texels is not None and int(np.prod(plan.fixed_shape)) > max_texels:
         return  # the comparison would itself exceed the caller's texel limit: fixed_error stays nan
-    plan.fixed_error = _fixed_error(plan, fine, interpolation, cache)
+    plan.fixed_error = verifier.fixed_error(plan.fixed_axes(), trial)
     if log is not None:
         log(f"{plan.file}: fixed-size alternative {' x '.join(map(str, plan.fixed_shape))}: "
             f"lookup error {plan.fixed_error:.3g} at the same points")
@@ -409,6 +268,7 @@ def plan_scene(
     max_texels: int | None = None,
     log: Callable[[str], None] | None = None,
     scheduler=None,
+    before_compute: Callable[[dict], None] | None = None,
 ) -> ScenePlan:
     """Plan (and compute) the minimal tables of a scene for the max lookup error ``lookup_tol``.
 
@@ -427,6 +287,11 @@ def plan_scene(
         Receives one line per verified candidate (progress; the CLI prints them on stderr).
     scheduler : distributed.Client or str, optional
         Compute the candidate tables on a Dask cluster (passed to :func:`bsdf_tab.api.tabulate`).
+    before_compute : callable, optional
+        The pre-compute hook: called with the spec of every tabulation before it runs (the
+        texels a check needs that no earlier check computed). It may raise to stop the planning
+        (the service raises :class:`~bsdf_tab.cost.CostLimitError` once the predicted cost of
+        the run would exceed its limit); the exception propagates.
 
     Returns
     -------
@@ -446,7 +311,8 @@ def plan_scene(
         lookup_tol = sc["lookup_tol"]
     else:
         lookup_tol = check_lookup_tol(lookup_tol, "tol")
-    cache = _Cache(device, workers, max_texels, scheduler)
+    cache = _Cache(device, workers, scheduler)
+    store = TexelStore(cache, before_compute)
     spacings = sc["lookup"]["spacings"]
     interpolation = sc["lookup"]["interpolation"]
     groups: dict[tuple, list[dict]] = {}
@@ -470,10 +336,11 @@ def plan_scene(
         fname = f"{base}_{counts[base]}.exr" if kind == "albedo" else f"{base}.exr"
         tp = TablePlan(fname, kind, dist, shadowing, fresnel, axes, [m["name"] for m in mats],
                        integration_tol=max(lookup_tol / INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL))
-        _plan_table(tp, spacings, lookup_tol, interpolation, cache, log)
+        _plan_table(tp, spacings, lookup_tol, interpolation, store, max_texels, log)
         tables.append(tp)
         for m in mats:
             manifest[m["name"]] = material_entry(m, tp, rname)
-    return ScenePlan(lookup_tol, interpolation, tables, manifest, tabulate_calls=cache.calls)
+    return ScenePlan(lookup_tol, interpolation, tables, manifest, tabulate_calls=store.calls,
+                     texels_computed=store.texels, texels_requested=store.requested)
 
 

@@ -1,0 +1,230 @@
+"""The search for the smallest table of one planned group, and the checks that verify it.
+
+A candidate (one spacing per interpolated axis, one node count per axis on the doubling
+ladder) is verified at the nodes of its refined grid (every cell midpoint and centre added):
+error = max over those points of |lookup(candidate) - direct| plus the direct value's
+integration error. The search is best-first over the candidates of every spacing combination
+(fewest texels first; ties: the earlier combination); a failing candidate doubles the axis
+whose midpoints (midpoints along that axis only) err most.
+
+What it computes is kept small without changing what it decides (``docs/scenes.md``):
+
+- every texel comes from the run's :class:`~.texels.TexelStore`: the nested ladder makes a
+  candidate's nodes, its check points and the next candidates' nodes the same texels;
+- a candidate is first checked at its *cross* points (midpoints along one axis, nodes along
+  the others): they alone decide which axis to double, and when one of them is above the
+  target the candidate fails whatever its cell centres hold, so the centres are computed only
+  for a candidate that may pass;
+- a candidate reached by doubling is first checked on the lines through its parent's worst
+  points (a few texels). A point above the target there fails it for sure; which axis its
+  child doubles is then decided only when that child could be the next candidate verified
+  (its smaller possible size comes up in the best-first order). A candidate of a spacing that
+  loses is so never refined at full cost beyond what the order needs.
+
+The candidates verified, their order and the winner are those of verifying every candidate on
+its full refined grid; the winner's reported error is computed on that full grid.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+from typing import Callable
+
+import numpy as np
+
+from ..errors import SpecError, TexelLimitError
+from ..spec import channel_names
+from .lookup import AxisPlan, lookup, texels_read
+
+__all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine", "search"]
+
+PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
+MAX_NODES = 1025
+MAX_CHECK_TEXELS = 300_000
+
+
+def combine(kind: str, diffs: dict, errs: dict) -> np.ndarray:
+    """Per-point lookup error from per-channel lookup differences and integration errors."""
+    if kind == "dfg":
+        # E = f0 A + B for any f0 in [0, 1]: the lookup error f0 dA + dB is largest at f0 = 0 or 1
+        return np.maximum(np.abs(diffs["B"]), np.abs(diffs["A"] + diffs["B"])) + errs["A"] + errs["B"]
+    return np.max([np.abs(diffs[ch]) + errs[ch] for ch in diffs], axis=0)
+
+
+class Verifier:
+    """The checks of the candidates of one planned table ``tp`` (a TablePlan), on the store."""
+
+    def __init__(self, tp, store, interpolation: str):
+        self.tp, self.store, self.interpolation = tp, store, interpolation
+        self.base = {k: v for k, v in tp.spec().items() if k != "axes"}
+        self.interp = [i for i, a in enumerate(tp.axes) if a.mode == "interp"]
+        self.chans = list(channel_names(tp.kind))
+
+    def trial(self, combo, sizes) -> list[AxisPlan]:
+        """The axes of a candidate (spacings ``combo``, node counts ``sizes`` of the interp axes)."""
+        out = [AxisPlan(a.name, a.mode, list(a.values), tuple(a.range), a.spacing, a.size) for a in self.tp.axes]
+        for i, sp, n in zip(self.interp, combo, sizes):
+            out[i].spacing, out[i].size = sp, n
+        return out
+
+    @staticmethod
+    def fine(trial: list[AxisPlan]) -> list[np.ndarray]:
+        """The nodes of the refined grid (the next rung on every interp axis)."""
+        return [AxisPlan(a.name, a.mode, a.values, a.range, a.spacing, 2 * a.size - 1).nodes() if a.mode == "interp"
+                else a.nodes() for a in trial]
+
+    def values(self, lists: list[np.ndarray]) -> dict[str, np.ndarray]:
+        return self.store.grid(self.base, [(a.name, v) for a, v in zip(self.tp.axes, lists)])
+
+    def errors(self, trial: list[AxisPlan], table: dict, lists: list[np.ndarray]) -> np.ndarray:
+        """Lookup error of the candidate (``table``: its values) at the grid ``lists``."""
+        grids = np.meshgrid(*lists, indexing="ij")
+        direct = self.values(lists)
+        errs = {ch: direct[ch + "_err"] for ch in self.chans}
+        modes: list = [None]
+        if self.interpolation == "nearest":  # every texel that can be nearest to a tie, either way
+            modes = [tuple(bool((c >> self.interp.index(i)) & 1) if i in self.interp else False
+                           for i in range(len(trial))) for c in range(1 << len(self.interp))]
+        total = np.zeros(grids[0].shape)
+        for m in modes:
+            diffs = {ch: lookup(table[ch], trial, grids, self.interpolation, m) - direct[ch] for ch in self.chans}
+            total = np.maximum(total, combine(self.tp.kind, diffs, errs))
+        return total
+
+    def cross(self, trial: list[AxisPlan]):
+        """(per interp axis: the max error at the points that are midpoints along it only,
+        and that point's coordinates)."""
+        coarse = [a.nodes() for a in trial]
+        fine = self.fine(trial)
+        table = self.values(coarse)
+        per_axis, worst = [], []
+        for i in self.interp:
+            lists = list(coarse)
+            lists[i] = fine[i]
+            err = self.errors(trial, table, lists)
+            sub = err[(slice(None),) * i + (slice(1, None, 2),)]
+            k = np.unravel_index(int(np.argmax(sub)), sub.shape)
+            per_axis.append(float(sub[k]))
+            worst.append([float(lists[j][2 * k[j] + 1 if j == i else k[j]]) for j in range(len(lists))])
+        return per_axis, worst
+
+    def line(self, trial: list[AxisPlan], worst_parent: list[list[float]]):
+        """(lower bound of the error, per interp axis the worst point found) on the lines of the
+        refined grid through ``worst_parent`` (the parent's worst point per interp axis)."""
+        coarse = [a.nodes() for a in trial]
+        fine = self.fine(trial)
+        table = self.values(coarse)
+        bound, worst = 0.0, []
+        for k, i in enumerate(self.interp):
+            lists = [np.array([x]) for x in worst_parent[k]]
+            lists[i] = fine[i]
+            err = self.errors(trial, table, lists)
+            sub = err[(slice(None),) * i + (slice(1, None, 2),)]
+            j = int(np.argmax(sub))
+            bound = max(bound, float(sub.ravel()[j]))
+            pt = list(worst_parent[k])
+            pt[i] = float(fine[i][2 * j + 1])
+            worst.append(pt)
+        return bound, worst
+
+    def full(self, trial: list[AxisPlan]) -> float:
+        """The candidate's error over its whole refined grid."""
+        return float(self.errors(trial, self.values([a.nodes() for a in trial]), self.fine(trial)).max())
+
+    def fixed_error(self, axes: list[AxisPlan], trial: list[AxisPlan]) -> float:
+        """Lookup error of the table of ``axes`` (the fixed-size alternative) at the refined grid
+        of ``trial``, plus the largest integration error of the texels the lookup reads.
+
+        Only those texels are computed: the values of the others do not enter the lookup."""
+        lists = self.fine(trial)
+        reads = [texels_read(ax, x, self.interpolation) for ax, x in zip(axes, lists)]
+        sub = self.values([ax.nodes()[r] for ax, r in zip(axes, reads)])
+        full = {}
+        for ch, v in sub.items():
+            arr = np.zeros(tuple(len(ax) for ax in axes))  # never read outside the computed texels
+            arr[np.ix_(*reads)] = v
+            full[ch] = arr
+        grids = np.meshgrid(*lists, indexing="ij")
+        direct = self.values(lists)
+        diffs = {ch: lookup(full[ch], axes, grids, self.interpolation) - direct[ch] for ch in self.chans}
+        err = combine(self.tp.kind, diffs, {ch: direct[ch + "_err"] for ch in self.chans})
+        return float(np.max(err)) + max(float(np.max(sub[ch + "_err"])) for ch in self.chans)
+
+
+def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store,
+           max_texels: int | None = None, log: Callable[[str], None] | None = None):
+    """The smallest candidate of ``tp`` below ``PLAN_MARGIN * lookup_tol``: (trial axes, error, verifier)."""
+    v = Verifier(tp, store, interpolation)
+    interp = [tp.axes[i] for i in v.interp]
+    combos: list[tuple] = [()]
+    for a in interp:
+        opts = spacings if a.range[0] >= 0.0 else ["linear"]
+        combos = [c + (sp,) for c in combos for sp in opts]
+    target = PLAN_MARGIN * lookup_tol
+    discrete = int(np.prod([len(a) for a in tp.axes if a.mode != "interp"]))
+    seq = itertools.count()
+    heap = [(2 ** len(interp) if interp else 1, ci, tuple(2 for _ in interp), next(seq), "verify", None)
+            for ci in range(len(combos))]
+    heapq.heapify(heap)
+
+    def say(ci, sizes, err: float, ok: bool, bound: bool = False) -> None:
+        if log is not None:
+            shape = " x ".join(f"{a.name} {n} {sp}" for a, n, sp in zip(interp, sizes, combos[ci])) or "discrete axes only"
+            log(f"{tp.file}: {shape}: lookup error {'>= ' if bound else ''}{err:.3g} "
+                f"({'ok' if ok else 'refine'}; target {target:.3g})")
+
+    def grow(ci, sizes, per_axis, worst) -> None:
+        k = int(np.argmax(per_axis))
+        grown = tuple(2 * n - 1 if j == k else n for j, n in enumerate(sizes))
+        heapq.heappush(heap, (int(np.prod(grown)), ci, grown, next(seq), "verify", worst))
+
+    best, limited = None, False
+    while heap:
+        texels, ci, sizes, _, what, info = heapq.heappop(heap)
+        trial = v.trial(combos[ci], sizes)
+        if what == "grow":  # a failed candidate whose child may now be next: decide which axis
+            grow(ci, sizes, *v.cross(trial))
+            continue
+        if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
+            limited = True  # checked before anything is computed
+            continue
+        if int(np.prod([2 * n - 1 for n in sizes])) * discrete > MAX_CHECK_TEXELS or any(n > MAX_NODES for n in sizes):
+            continue
+        if info is not None:
+            bound, worst = v.line(trial, info)
+            if bound > target:
+                say(ci, sizes, bound, False, True)
+                if len(sizes) == 1:
+                    grow(ci, sizes, [bound], worst)
+                else:
+                    smallest = min(int(np.prod([2 * m - 1 if q == j else m for q, m in enumerate(sizes)]))
+                                   for j in range(len(sizes)))
+                    heapq.heappush(heap, (smallest, ci, sizes, next(seq), "grow", None))
+                continue
+        if interp:
+            per_axis, worst = v.cross(trial)
+            if max(per_axis) > target:
+                say(ci, sizes, max(per_axis), False, True)
+                grow(ci, sizes, per_axis, worst)
+                continue
+        total = v.full(trial)
+        say(ci, sizes, total, total <= target)
+        if total <= target or not interp:
+            best = (trial, total)
+            break
+        grow(ci, sizes, per_axis, worst)
+    if best is None and limited:
+        raise TexelLimitError(
+            "tol",
+            f"table {tp.file} cannot reach a lookup error of {lookup_tol:g} within the limit of "
+            f"{max_texels} texels per table; loosen tol",
+            limit=max_texels,
+        )
+    if best is None:
+        raise SpecError(
+            "tol",
+            f"cannot reach a lookup error of {lookup_tol:g} for table {tp.file} within {MAX_NODES} nodes per "
+            f"axis ({MAX_CHECK_TEXELS} check texels); loosen tol",
+        )
+    return best[0], best[1], v
