@@ -79,6 +79,9 @@ __all__ = [
     "texel_count",
     "axis_names",
     "channel_names",
+    "KIND_OPTIONS",
+    "KIND_OPTION_KEYS",
+    "kind_options",
 ]
 
 #: Table kind -> its catalog entry (axes, channels, fresnel policy, description, and optional
@@ -115,6 +118,19 @@ TOLERANCE_RANGE = (1e-12, 1e-1)
 TOP_LEVEL_KEYS = ("table", "distribution", "shadowing", "fresnel", "axes", "method", "tolerance", "effort")
 #: Keys that only some kinds accept (TABLE_KINDS[kind]["params"]).
 KIND_KEYS = ("alpha", "roughness", "parametrization")
+#: Keys a kind declares for itself in its catalog entry, one path for every kind:
+#: ``TABLE_KINDS[kind]["keys"] = {name: {"choices": (...), "default": value, "description": text,
+#: "legacy": an older top-level spelling (optional)}}``. :func:`normalize_spec` validates each against
+#: its choices, fills its default (so it is part of the canonical spec, its hash and every table's
+#: metadata) and rejects it for the kinds that do not declare it.
+KIND_OPTIONS: dict[str, dict[str, dict[str, Any]]] = {
+    kind: dict(info.get("keys", {})) for kind, info in TABLE_KINDS.items() if info.get("keys")
+}
+KIND_OPTION_KEYS: tuple[str, ...] = tuple(sorted({name for keys in KIND_OPTIONS.values() for name in keys}))
+for _kind, _keys in KIND_OPTIONS.items():  # a declaration error is the catalog's, caught at import
+    for _name, _decl in _keys.items():
+        if _name in TOP_LEVEL_KEYS or _name in KIND_KEYS or _decl.get("default") not in tuple(_decl.get("choices", ())):
+            raise ImportError(f"table {_kind}: kind key {_name!r} clashes with a spec key or its default is not a choice")
 
 
 def _parse(spec: dict | str) -> dict:
@@ -236,7 +252,8 @@ def normalize_spec(spec: dict | str) -> dict:
         A new dict with keys ``table``, ``distribution``, ``shadowing``,
         ``fresnel``, ``axes`` (in table axis order), ``method``, ``tolerance``;
         the ``bsdf`` table also has ``parametrization`` and ``alpha`` (or
-        ``roughness``), its single material's width parameter.
+        ``roughness``), its single material's width parameter; a kind that declares its own
+        keys (``TABLE_KINDS[kind]["keys"]``, :data:`KIND_OPTIONS`) has each of them.
         Idempotent: ``normalize_spec(normalize_spec(s)) == normalize_spec(s)``.
 
     Raises
@@ -245,14 +262,15 @@ def normalize_spec(spec: dict | str) -> dict:
         With ``param`` naming the offending parameter.
     """
     spec = _parse(spec)
-    check_keys(spec, TOP_LEVEL_KEYS + KIND_KEYS, "")
+    check_keys(spec, TOP_LEVEL_KEYS + KIND_KEYS + KIND_OPTION_KEYS, "")
     if "table" not in spec:
         raise SpecError("table", f"is required; {one_of(TABLE_KINDS)}")
     kind = choice(spec["table"], TABLE_KINDS, "table")
     info = TABLE_KINDS[kind]
     own = info.get("params", ())
+    legacy = {d["legacy"] for d in KIND_OPTIONS.get(kind, {}).values() if d.get("legacy")}
     for key in KIND_KEYS:
-        if key in spec and key not in own:
+        if key in spec and key not in own and key not in legacy:
             hint = f"; for table {kind} {key} is an axis: give axes.{key}" if key in ROUGHNESS_NAMES else ""
             raise SpecError(key, f"is not a parameter of table {kind}{hint}")
     methods = info.get("methods", METHODS)
@@ -262,6 +280,7 @@ def normalize_spec(spec: dict | str) -> dict:
         "shadowing": choice(spec.get("shadowing", "correlated"), SHADOWINGS, "shadowing"),
         "fresnel": _normalize_fresnel(spec.get("fresnel"), kind),
     }
+    out.update(_normalize_kind_options(spec, kind))
     parametrization = None
     if "parametrizations" in info:
         parametrization = _normalize_parametrization(spec, kind)
@@ -273,6 +292,27 @@ def normalize_spec(spec: dict | str) -> dict:
     out["tolerance"] = _normalize_tolerance(spec.get("tolerance", DEFAULT_TOLERANCE))
     if spec.get("effort") is not None:
         out["effort"] = _normalize_effort(spec["effort"], out["method"])
+    return out
+
+
+def _normalize_kind_options(spec: dict, kind: str) -> dict:
+    """The kind's own keys (:data:`KIND_OPTIONS`): each given value checked, absent ones defaulted."""
+    declared = KIND_OPTIONS.get(kind, {})
+    for key in KIND_OPTION_KEYS:
+        if key in spec and key not in declared:
+            owners = sorted(k for k, keys in KIND_OPTIONS.items() if key in keys)
+            raise SpecError(key, f"is not a parameter of table {kind} (only of {', '.join(owners)})")
+    out = {}
+    for name, decl in declared.items():
+        choices = tuple(decl["choices"])
+        value = choice(spec[name], choices, name) if name in spec else None
+        old = decl.get("legacy")
+        if old and old in spec:  # the older spelling, still accepted: normalized to the key itself
+            former = choice(spec[old], choices, old)
+            if value is not None and value != former:
+                raise SpecError(old, f"is the older spelling of {name}; they disagree ({former!r} vs {value!r}): give {name} only")
+            value = former
+        out[name] = decl["default"] if value is None else value
     return out
 
 
@@ -361,6 +401,11 @@ def texel_count(nspec: dict | str) -> int:
     for axis in nspec["axes"].values():
         count *= len(axis["values"]) if "values" in axis else axis["size"]
     return count
+
+
+def kind_options(kind: str) -> dict[str, dict[str, Any]]:
+    """The keys a table kind declares for itself: name -> {choices, default, description[, legacy]}."""
+    return dict(KIND_OPTIONS.get(choice(kind, TABLE_KINDS, "table"), {}))
 
 
 def axis_names(kind: str) -> tuple[str, ...]:

@@ -42,6 +42,8 @@ from bsdf_tab.spec import (
     SPACINGS,
     DEFAULT_BSDF_ALPHA,
     KIND_KEYS,
+    KIND_OPTIONS,
+    KIND_OPTION_KEYS,
     SCALAR_PARAMS as MATERIAL_SCALARS,
     TABLE_KINDS,
     TOLERANCE_RANGE,
@@ -88,7 +90,7 @@ SCALAR_PARAMS = ("distribution", "shadowing", "method", "tolerance", "effort", "
 
 def spec_params() -> list[str]:
     """Every query parameter that sets a part of the spec."""
-    names = list(SCALAR_PARAMS)
+    names = list(SCALAR_PARAMS) + list(KIND_OPTION_KEYS)  # a kind's own keys (sheen_shadowing=...)
     for axis in AXIS_NAMES:
         names.append(axis)
         names.extend(f"{axis}_{s}" for s in AXIS_SUFFIXES)
@@ -167,9 +169,9 @@ def spec_from_query(table: str, items: Iterable[tuple[str, str]], extra: Iterabl
             raise _bad(name, "given more than once")
         seen[name] = value
     spec: dict[str, Any] = {"table": table}
-    for key in ("distribution", "shadowing", "method"):
+    for key in ("distribution", "shadowing", "method", *KIND_OPTION_KEYS):
         if key in seen:
-            spec[key] = seen[key]
+            spec[key] = seen[key]  # strings: the library checks them (a kind's own keys against its choices)
     if "tolerance" in seen:
         spec["tolerance"] = _float(seen["tolerance"], "tolerance")
     if "effort" in seen:
@@ -334,6 +336,13 @@ def catalog(settings) -> dict:
                 )
                 for name in info["params"]
             }
+        if KIND_OPTIONS.get(kind):
+            entry["keys"] = {
+                name: {"type": "string", "enum": list(decl["choices"]), "default": decl["default"],
+                       "description": decl.get("description", ""), "query_param": name,
+                       **({"legacy": decl["legacy"]} if decl.get("legacy") else {})}
+                for name, decl in KIND_OPTIONS[kind].items()
+            }
         if info.get("parametrizations"):
             entry["parametrizations"] = {k: list(v) for k, v in info["parametrizations"].items()}
             entry["axes_by_parametrization"] = {
@@ -406,6 +415,8 @@ def query_parameters(extra: Iterable[dict] = ()) -> list[dict]:
         for k in KIND_KEYS
         if k not in AXIS_NAMES
     ]
+    # a kind's own keys (KIND_OPTIONS, e.g. sheen_shadowing) are accepted like the keys above and
+    # documented per table in the catalog (GET /tables: tables.<kind>.keys) and in the POST schema
     for axis in AXIS_NAMES:
         out += [
             query_param(axis, {"type": "string", "pattern": r"^[-+0-9.eE,]+$"}, f"explicit {axis} values, comma-separated, increasing"
@@ -455,6 +466,7 @@ def spec_json_schema() -> dict:
             "tolerance": number,
             "effort": {"type": "integer", "minimum": 8, "maximum": MAX_EFFORT},
             **{k: ({"type": "string"} if k == "parametrization" else number) for k in KIND_KEYS},
+            **{k: {"type": "string"} for k in KIND_OPTION_KEYS},
             "fresnel": {
                 "type": "object",
                 "properties": {"type": {"type": "string", "enum": sorted(FRESNEL_TYPES)}, **{p: number for p in FRESNEL_PARAMS}},

@@ -344,3 +344,64 @@ def test_resolved_values_within_domain_for_defaults():
         for name, values in resolve_axes({"table": kind}).items():
             assert np.all(np.diff(values) > 0), (kind, name)
             assert all(math.isfinite(v) for v in values)
+
+
+# --------------------------------------------------------------------------- kind keys (declared by a kind)
+
+
+def test_kind_keys_declared_validated_defaulted():
+    """Every key a kind declares: each choice accepted and kept, the default filled in (so it is in
+    the hash), a bad value names the key, and every other kind rejects it naming it."""
+    from bsdf_tab.spec import KIND_OPTIONS
+
+    assert KIND_OPTIONS, "no kind declares a key (the sheen kinds declare sheen_shadowing)"
+    for kind, keys in KIND_OPTIONS.items():
+        for name, decl in keys.items():
+            assert normalize_spec({"table": kind})[name] == decl["default"]
+            hashes = set()
+            for value in decl["choices"]:
+                n = normalize_spec({"table": kind, name: value})
+                assert n[name] == value and normalize_spec(n) == n
+                hashes.add(spec_hash(n))
+            assert len(hashes) == len(decl["choices"])  # the cache key tells the choices apart
+            assert spec_error({"table": kind, name: "no-such-choice"}).param == name
+            assert spec_error({"table": kind, name: 3}).param == name
+            for other in TABLE_KINDS:
+                if name not in KIND_OPTIONS.get(other, {}):
+                    assert spec_error({"table": other, name: decl["default"]}).param == name
+
+
+def test_sheen_shadowing_key_and_its_older_spelling():
+    new = normalize_spec({"table": "sheen_albedo", "sheen_shadowing": "exact"})
+    old = normalize_spec({"table": "sheen_albedo", "parametrization": "exact"})
+    assert new == old and "parametrization" not in new and spec_hash(new) == spec_hash(old)
+    assert spec_hash(new) != spec_hash({"table": "sheen_albedo"})  # default fitted
+    assert normalize_spec({"table": "sheen_albedo"})["sheen_shadowing"] == "fitted"
+    assert spec_error({"table": "sheen_albedo", "parametrization": "smith"}).param == "parametrization"
+    err = spec_error({"table": "sheen_albedo_avg", "parametrization": "exact", "sheen_shadowing": "fitted"})
+    assert err.param == "parametrization" and "sheen_shadowing" in str(err)
+    # agreeing spellings are fine; other kinds keep their own parametrization
+    assert normalize_spec({"table": "sheen_albedo", "parametrization": "exact", "sheen_shadowing": "exact"}) == new
+    assert normalize_spec({"table": "bsdf", "parametrization": "half_diff"})["parametrization"] == "half_diff"
+    assert spec_error({"table": "albedo", "parametrization": "exact"}).param == "parametrization"
+
+
+def test_kind_keys_one_generic_path(monkeypatch):
+    """A new kind declaring its own key gets validation with no change in spec.py."""
+    import bsdf_tab.spec as spec_mod
+
+    fake = dict(TABLE_KINDS["albedo"])
+    fake["keys"] = {"weave": {"choices": ("plain", "twill"), "default": "plain", "description": "test"}}
+    kinds = dict(TABLE_KINDS, fake_kind=fake)
+    options = dict(spec_mod.KIND_OPTIONS, fake_kind=fake["keys"])
+    monkeypatch.setattr(spec_mod, "TABLE_KINDS", kinds)
+    monkeypatch.setattr(spec_mod, "KIND_OPTIONS", options)
+    monkeypatch.setattr(spec_mod, "KIND_OPTION_KEYS", tuple(sorted(set(spec_mod.KIND_OPTION_KEYS) | {"weave"})))
+    assert spec_mod.normalize_spec({"table": "fake_kind"})["weave"] == "plain"
+    assert spec_mod.normalize_spec({"table": "fake_kind", "weave": "twill"})["weave"] == "twill"
+    with pytest.raises(SpecError) as info:
+        spec_mod.normalize_spec({"table": "fake_kind", "weave": "satin"})
+    assert info.value.param == "weave"
+    with pytest.raises(SpecError) as info:
+        spec_mod.normalize_spec({"table": "albedo", "weave": "plain"})
+    assert info.value.param == "weave" and "fake_kind" in str(info.value)

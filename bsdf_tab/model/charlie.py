@@ -10,7 +10,7 @@ with ``alpha`` the sheen alpha (glTF ``KHR_materials_sheen`` and Filament: alpha
 sheenRoughness^2). alpha is clamped below at :data:`CHARLIE_ALPHA_MIN` (a sheen roughness of
 3.2e-4): at alpha = 0 the distribution is a Dirac ring on the horizon, no density.
 
-Shadowing (the ``parametrization`` of the sheen tables, :mod:`bsdf_tab.tables.sheen`):
+Shadowing (the spec key ``sheen_shadowing`` of the sheen tables, :mod:`bsdf_tab.tables.sheen`):
 
 - ``fitted``: the paper's fitted Lambda, exp(L(cos)) for cos < 1/2 and exp(2 L(1/2) -
   L(1 - cos)) above, L(x) = a / (1 + b x^c) + d x + e with (a, b, c, d, e) interpolated in

@@ -3,7 +3,7 @@
 - **Filament** (google/filament, ``libs/ibl`` cmgen ``DFV_Charlie`` with ``shaders/src/brdf.fs``
   ``D_Charlie`` and ``V_Neubelt``): the third channel of the DFG texture, 128 x 128, NoV and
   perceptual roughness r at texel centres (alpha = r^2), RGB16F: E = int D_Charlie V_Neubelt
-  NoL dL, our ``sheen_albedo`` with ``parametrization = ashikhmin``.
+  NoL dL, our ``sheen_albedo`` with ``sheen_shadowing = ashikhmin``.
 - **glTF Sample Viewer** (KhronosGroup/glTF-Sample-Viewer ``source/shaders/ibl_filtering.frag``,
   ``LUT()`` with ``u_distribution = cCharlie``): the blue channel of the Charlie LUT, E of
   D_Charlie with ``V_Ashikhmin`` = clamp(1 / (4 (NdotL + NdotV - NdotL NdotV)), 0, 1) (the clamp
@@ -17,7 +17,7 @@
   The Sample Viewer's shipped ``lut_sheen_E.png`` was not available to compare.
 
 Each preset subclasses :class:`~.recipe.Preset` only to add the sheen table's
-``parametrization`` (the shadowing choice) to its spec.
+``sheen_shadowing`` (the shadowing choice) to its spec.
 """
 
 from __future__ import annotations
@@ -34,13 +34,13 @@ __all__ = ["PRESET_LIST", "SheenPreset"]
 class SheenPreset(Preset):
     """A :class:`~.recipe.Preset` of a ``sheen_albedo`` table with its shadowing choice."""
 
-    parametrization: str = "fitted"
+    sheen_shadowing: str = "fitted"
 
     def spec(self, axes: dict) -> dict:
         spec = super().spec(axes)
         spec.pop("shadowing", None)
         spec.pop("distribution", None)
-        spec["parametrization"] = self.parametrization
+        spec["sheen_shadowing"] = self.sheen_shadowing
         return spec
 
 
@@ -52,7 +52,7 @@ PRESET_LIST = [
         description="sheen albedo E, 128 x 128 [roughness, NoV] at texel centres, RGB16F (blue channel)",
         axes=lambda: {"roughness": unit_centers(128), "mu": unit_centers(128)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, parametrization="ashikhmin",
+        outputs=_E, sheen_shadowing="ashikhmin",
         conventions={"distribution": "Charlie (Estevez and Kulla 2017), alpha = r^2",
                      "visibility": "V_Neubelt = 1 / (4 (NoL + NoV - NoL NoV)), unclamped",
                      "axes": "NoV_i = (i + 0.5)/128 (u), perceptual roughness r_j = (j + 0.5)/128 (v)",
@@ -67,7 +67,7 @@ PRESET_LIST = [
         "8-bit PNG",
         axes=lambda: {"roughness": unit_centers(1024), "mu": unit_centers(1024)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, parametrization="ashikhmin", clamp01=True,
+        outputs=_E, sheen_shadowing="ashikhmin", clamp01=True,
         conventions={"distribution": "Charlie, sheenRoughness clamped at 1e-6, alpha = r^2",
                      "visibility": "V_Ashikhmin = clamp(1 / (4 (NdotL + NdotV - NdotL NdotV)), 0, 1)",
                      "axes": "NdotV_i = (i + 0.5)/1024 (u), sheen roughness r_j = (j + 0.5)/1024 (v), as the GGX LUT",
@@ -83,7 +83,7 @@ PRESET_LIST = [
         "[roughness, NdotV] at texel centres",
         axes=lambda: {"roughness": unit_centers(32), "mu": unit_centers(32)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, parametrization="fitted",
+        outputs=_E, sheen_shadowing="fitted",
         conventions={"distribution": "Charlie, alpha = sheenRoughness^2",
                      "visibility": "V_Sheen = clamp(1 / ((1 + Lambda(NdotV) + Lambda(NdotL)) 4 NdotV NdotL), 0, 1), "
                      "Lambda the Estevez-Kulla fit",

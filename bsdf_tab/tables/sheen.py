@@ -2,8 +2,9 @@
 
 The BRDF is f = D(h) V(mu_i, mu_o) (F = 1; the sheen colour multiplies it) with the Charlie D
 of Estevez and Kulla 2017, "Production Friendly Microfacet Sheen BRDF", and the visibility V
-chosen by the spec's ``parametrization`` (here it names the shadowing, not axes; every choice
-has the axes (mu, alpha), alpha = sheenRoughness^2 or a ``roughness`` axis = sheenRoughness):
+chosen by the spec's ``sheen_shadowing`` key (declared in these kinds' ``keys``; the older
+spelling ``parametrization`` is still accepted and normalized to it; the axes are (mu, alpha),
+alpha = sheenRoughness^2, or a ``roughness`` axis = sheenRoughness):
 
 - ``fitted`` (default): the paper's fitted Lambda, correlated, V clamped to [0, 1] as the
   glTF Sample Viewer's ``V_Sheen`` (:func:`bsdf_tab.model.charlie.charlie_V_fitted`);
@@ -46,7 +47,7 @@ from ..model.charlie import (
 )
 from ._common import Context
 
-#: The shadowing choices (the spec's ``parametrization`` of the sheen kinds) -> kernel mode.
+#: The shadowing choices (the spec's ``sheen_shadowing`` of the sheen kinds) -> kernel mode.
 SHEEN_SHADOWINGS = {"fitted": 0, "exact": 1, "ashikhmin": 2}
 _MAX_GRADED = 48
 _INNER_PANELS = 4
@@ -294,7 +295,7 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     mu = np.asarray(axes["mu"], dtype=np.float64)
     alpha = alpha_values(axes)
     ctx.expect(mu.size * alpha.size)
-    E, err = sheen_albedo_values(mu[:, None], alpha[None, :], nspec["parametrization"], ctx.device)
+    E, err = sheen_albedo_values(mu[:, None], alpha[None, :], nspec["sheen_shadowing"], ctx.device)
     ctx.reporter()(mu.size * alpha.size, mu.size * alpha.size)
     return {"E": E, "E_err": err}
 
@@ -302,14 +303,22 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
 def compute_avg(nspec: dict, axes: dict, ctx: Context) -> dict:
     alpha = alpha_values(axes)
     ctx.expect(60 * alpha.size)
-    E, err = sheen_albedo_avg_values(alpha, nspec["parametrization"], ctx.device)
+    E, err = sheen_albedo_avg_values(alpha, nspec["sheen_shadowing"], ctx.device)
     ctx.reporter()(60 * alpha.size, 60 * alpha.size)
     return {"E_avg": E, "E_avg_err": err}
 
 
 _SHEEN_PARAMS = {
     "methods": ("gauss_kronrod",),
-    "params": ("parametrization",),
+    "keys": {
+        "sheen_shadowing": {
+            "choices": tuple(SHEEN_SHADOWINGS),
+            "default": "fitted",
+            "legacy": "parametrization",  # the spelling before the key existed (still accepted)
+            "description": "the Charlie shadowing / visibility: fitted (Estevez-Kulla fitted Lambda, glTF V_Sheen "
+            "clamped to [0, 1]), exact (the Smith Lambda of D, height-correlated), ashikhmin (Filament V_Neubelt)",
+        },
+    },
 }
 
 KINDS = {
@@ -318,9 +327,8 @@ KINDS = {
         "channels": ("E",),
         "fresnel": "one",
         "description": "directional albedo E(mu, alpha) of the Charlie sheen BRDF (Estevez and Kulla 2017), "
-        "alpha = sheenRoughness^2; parametrization = shadowing: fitted (glTF V_Sheen), exact (Smith), "
+        "alpha = sheenRoughness^2; sheen_shadowing: fitted (glTF V_Sheen), exact (Smith), "
         "ashikhmin (Filament V_Neubelt)",
-        "parametrizations": {name: ("mu", "alpha") for name in SHEEN_SHADOWINGS},
         "compute": compute,
         **_SHEEN_PARAMS,
     },
@@ -329,8 +337,7 @@ KINDS = {
         "channels": ("E_avg",),
         "fresnel": "one",
         "description": "hemispherical average 2 int_0^1 E(mu) mu dmu of the Charlie sheen albedo; "
-        "parametrization = shadowing (fitted, exact, ashikhmin)",
-        "parametrizations": {name: ("alpha",) for name in SHEEN_SHADOWINGS},
+        "sheen_shadowing: fitted, exact, ashikhmin",
         "compute": compute_avg,
         **_SHEEN_PARAMS,
     },

@@ -27,6 +27,7 @@ from bsdf_tab.spec import (
     SPACINGS,
     TABLE_KINDS,
     channel_names,
+    kind_options,
 )
 
 from ..errors import ServiceError, from_spec_error, query_param_for
@@ -80,6 +81,8 @@ def _kind_params(kind: str, q: dict) -> list[str]:
             rows.append(_label(name, _select(name, list(info.get("parametrizations", {})), q.get(name), "(default)")))
         elif name == "alpha":  # alpha or roughness: one field, alpha
             rows.append(_label("alpha", _input("alpha", q.get("alpha"), "material width (default)")))
+    for name, decl in kind_options(kind).items():  # the keys the kind declares (sheen: sheen_shadowing)
+        rows.append(_label(name, _select(name, list(decl["choices"]), q.get(name), f"{decl['default']} (default)")))
     return (["    <fieldset><legend>material</legend>"] + rows + ["    </fieldset>"]) if rows else []
 
 

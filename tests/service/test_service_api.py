@@ -344,3 +344,41 @@ def test_strict_slice_and_integer_parsing(client, value):
     assert page.status_code == 400 and 'id="error"' in page.text
     err(client.get("/tables/albedo", params={"mu_size": value}), 400, query_param="mu_size")
     err(client.get("/tables/albedo", params={"mu": value}), 400, query_param="mu")
+
+
+# ------------------------------------------------------------------ a kind's own keys (sheen_shadowing)
+
+
+def test_sheen_shadowing_key_query_catalog_cache_meta(client):
+    from bsdf_tab.tables.sheen import SHEEN_SHADOWINGS
+
+    cat = client.get("/tables").json()
+    key = cat["tables"]["sheen_albedo"]["keys"]["sheen_shadowing"]
+    assert key["enum"] == list(SHEEN_SHADOWINGS) and key["default"] == "fitted" and key["query_param"] == "sheen_shadowing"
+    assert "keys" not in cat["tables"]["albedo"]
+    q = "mu=0.3,1&roughness=0.5"
+    values, etags = {}, {}
+    for mode in SHEEN_SHADOWINGS:
+        r = client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing={mode}&format=json")
+        assert r.status_code == 200, r.text
+        values[mode] = json.dumps(r.json()["channels"]["E"])
+        etags[mode] = r.headers["etag"]
+        info = client.get(f"/tables/sheen_albedo/info?{q}&sheen_shadowing={mode}").json()
+        assert info["spec"]["sheen_shadowing"] == mode
+    assert len(set(values.values())) == len(set(etags.values())) == 3  # three cache keys, three tables
+    # the default, and the older spelling: the same cache key as the key itself
+    assert client.get(f"/tables/sheen_albedo?{q}&format=json").headers["etag"] == etags["fitted"]
+    old = client.get(f"/tables/sheen_albedo?{q}&parametrization=exact&format=json")
+    assert old.status_code == 200 and old.headers["etag"] == etags["exact"]
+    post = client.post("/tables?format=json", json={"table": "sheen_albedo", "sheen_shadowing": "ashikhmin",
+                                                     "axes": {"mu": [0.3, 1.0], "roughness": [0.5]}})
+    assert post.status_code == 200 and post.headers["etag"] == etags["ashikhmin"]
+    # bad values and the wrong kind: 400 naming the key
+    err(client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing=smith"), 400, "sheen_shadowing")
+    err(client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing=exact&sheen_shadowing=fitted"), 400, "sheen_shadowing")
+    err(client.get(f"/tables/sheen_albedo?{q}&parametrization=smith"), 400, "parametrization")
+    err(client.get(f"/tables/albedo?{SMALL}&sheen_shadowing=exact"), 400, "sheen_shadowing")
+    err(client.post("/tables", json={"table": "sheen_albedo", "sheen_shadowing": 1}), 400, "sheen_shadowing")
+    page = client.get(f"/?table=sheen_albedo&{q}&sheen_shadowing=exact")
+    assert page.status_code == 200 and 'id="f-sheen_shadowing"' in page.text
+    assert '<option value="exact" selected>' in page.text

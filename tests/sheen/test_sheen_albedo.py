@@ -121,20 +121,22 @@ def test_regimes_finite_and_bounded():
 
 
 def test_tabulate_spec_and_avg():
-    t = bsdf_tab.tabulate({"table": "sheen_albedo", "parametrization": "ashikhmin",
+    t = bsdf_tab.tabulate({"table": "sheen_albedo", "sheen_shadowing": "ashikhmin",
                            "axes": {"mu": [0.25, 1.0], "roughness": [0.5, 1.0]}})
     assert t.channels["E"].shape == (2, 2) and "E_err" in t.channels
-    assert t.meta["spec"]["parametrization"] == "ashikhmin"
+    assert t.meta["spec"]["sheen_shadowing"] == "ashikhmin"
+    ref, _ = sheen_albedo_values(np.array([0.25, 1.0])[:, None], np.array([0.25, 1.0])[None, :], "ashikhmin")
+    np.testing.assert_allclose(t.channels["E"], ref, rtol=1e-6)  # float32 storage
     # E_avg = 2 int E mu dmu against a reference: Gauss-Legendre in w = sqrt(mu) over the kernel's own E
     a = 0.25
-    avg = bsdf_tab.tabulate({"table": "sheen_albedo_avg", "parametrization": "exact", "axes": {"alpha": [a]}})
+    avg = bsdf_tab.tabulate({"table": "sheen_albedo_avg", "sheen_shadowing": "exact", "axes": {"alpha": [a]}})
     x, w = np.polynomial.legendre.leggauss(40)
     ws = 0.5 * (x + 1)
     E, _ = sheen_albedo_values(ws**2, np.full(ws.shape, a), "exact")
     ref = np.sum(0.5 * w * 4 * ws**3 * E)
     assert abs(avg.channels["E_avg"][0] - ref) <= max(avg.channels["E_avg_err"][0], 1e-9)
     with pytest.raises(bsdf_tab.SpecError):
-        bsdf_tab.normalize_spec({"table": "sheen_albedo", "parametrization": "smith"})
+        bsdf_tab.normalize_spec({"table": "sheen_albedo", "sheen_shadowing": "smith"})
 
 
 def test_avg_against_reference_quadrature():
@@ -142,5 +144,5 @@ def test_avg_against_reference_quadrature():
     x, w = np.polynomial.legendre.leggauss(16)
     ws = 0.5 * (x + 1)
     ref = sum(0.5 * wk * 4 * s**3 * E_ref(s * s, 1.0, "ashikhmin") for s, wk in zip(ws, w))
-    avg = bsdf_tab.tabulate({"table": "sheen_albedo_avg", "parametrization": "ashikhmin", "axes": {"alpha": [1.0]}})
+    avg = bsdf_tab.tabulate({"table": "sheen_albedo_avg", "sheen_shadowing": "ashikhmin", "axes": {"alpha": [1.0]}})
     assert abs(avg.channels["E_avg"][0] - ref) <= max(avg.channels["E_avg_err"][0], 2e-6), (avg.channels["E_avg"][0], ref)
