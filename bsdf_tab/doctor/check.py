@@ -16,58 +16,25 @@ says how many texels were checked), and from the residual against that exact tab
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..lookup import fit_axis
 from .exact import exact_at
 from .fit import NODE_TYPES, Hypothesis, encodings, even_indices, search
 from .readers import LutImage, LutReadError, read_lut, read_lut_bytes
+from .nd import search_nd
+from .ndcheck import check_nd
 from .report import Report
+from .storage import BITS as _BITS
+from .storage import MU_CLAMPS, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
 
 __all__ = ["MU_CLAMPS", "check_image", "check_lut", "check_lut_bytes"]
 
-#: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
-MU_CLAMPS = {1e-4: "1e-4 (Cycles' clamp)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
-             1e-3: "1e-3", 1e-2: "1e-2"}
 MAX_CHECK = 16
-_BITS = {"unorm8": 8, "unorm10": 10, "unorm16": 16}
 
 
 def _subsample(n: int) -> np.ndarray:
     return even_indices(n, MAX_CHECK)
-
-
-def _quantization(img: LutImage, data: np.ndarray) -> tuple[str, float]:
-    """The storage (``unorm8`` ...) and its step, from the file or from the values' grid."""
-    if img.storage in _BITS:
-        return img.storage, 1.0 / (2 ** _BITS[img.storage] - 1)
-    finite = data[np.isfinite(data)]
-    for name, bits in _BITS.items():
-        scale = 2**bits - 1
-        if finite.size and np.abs(finite * scale - np.round(finite * scale)).max() < 1e-3 and img.storage != "float16":
-            return name, 1.0 / scale
-    if img.storage == "float16" or (finite.size and np.array_equal(finite.astype(np.float16).astype(np.float64), finite)):
-        return "float16", 0.0
-    return img.storage, 0.0
-
-
-def _storage_rms(storage: str, step: float, data: np.ndarray) -> float:
-    """The rms rounding error the storage alone puts in the texels (uniform rounding: step / sqrt(12))."""
-    if storage == "float16":
-        finite = data[np.isfinite(data)]
-        ulp = np.spacing(np.abs(finite).astype(np.float16)).astype(np.float64)
-        return float(np.sqrt(np.mean(ulp**2) / 12.0)) if finite.size else 0.0
-    return step / math.sqrt(12.0)
-
-
-def _hf(r: np.ndarray) -> np.ndarray:
-    """Residual minus the mean of its (up to 8) neighbours: the texel-to-texel part."""
-    pad = np.pad(r, 1, mode="edge")
-    H, W = r.shape
-    acc = sum(pad[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx)
-    return r - acc / 8.0
 
 
 def _claimed_axes(img: LutImage, expect_axes) -> list[dict] | None:
@@ -91,12 +58,41 @@ def _axis_label(h) -> str:
     return "mu" if h.quantity == "mu" else h.name
 
 
-def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut") -> Report:
-    """Identify a LUT already read (see :func:`check_lut`)."""
+#: a 2-D LUT whose best (mu, roughness) hypothesis scores above this is also tried as a
+#: (ior, roughness) average of a dielectric
+TRY_AVG_ABOVE = 4e-3
+
+
+def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut"):
+    """Identify a LUT already read (see :func:`check_lut`): 2-D LUTs here, 1-D averages and 3-D
+    dielectric tables (and 2-D ones the (mu, roughness) kinds do not fit) in :mod:`.ndcheck`."""
+    data = img.data
+    if data.ndim == 3 and data.shape[0] == 1:  # a 1-D texture stored as one row
+        data = data[0]
+    if min(data.shape[:-1]) < 4:
+        size = " x ".join(str(n) for n in data.shape[:-1])
+        raise LutReadError(f"a {size} LUT is too small to identify (at least 4 nodes per axis)")
+    if not np.isfinite(data).any() or all(np.nanmax(data[..., c]) - np.nanmin(data[..., c]) <= 1e-6
+                                          for c in range(data.shape[-1])):
+        raise LutReadError("every channel is constant: nothing to identify")
+    if data.ndim != 3:
+        kind = "albedo_avg" if data.ndim == 2 else "dielectric"
+        return check_nd(kind, img, data, expect_axes=expect_axes, heatmap=heatmap, name=name)
+    report = _check_2d(img, expect_axes=expect_axes, heatmap=None, name=name)
+    if report.best.score > TRY_AVG_ABOVE:
+        spread = np.nanmax(data, axis=(0, 1)) - np.nanmin(data, axis=(0, 1))
+        ranked = search_nd("dielectric_avg", data, [c for c in range(data.shape[2]) if spread[c] > 1e-6])
+        if ranked[0].score < 0.5 * report.best.score:
+            return check_nd("dielectric_avg", img, data, expect_axes=expect_axes, heatmap=heatmap, name=name,
+                            ranked=ranked)
+    if heatmap is not None:
+        report.write_heatmap(heatmap)
+    return report
+
+
+def _check_2d(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut") -> Report:
     data = img.data
     H, W, C = data.shape
-    if H < 4 or W < 4:
-        raise LutReadError(f"a {H} x {W} LUT is too small to identify (at least 4 x 4)")
     if not np.isfinite(data).all():
         bad = int((~np.isfinite(data)).sum())
         nan_note = f"{bad} texels are NaN or infinite (ignored in the fit)"

@@ -68,17 +68,20 @@ class LutReadError(SpecError):
 
 
 def _as_image(a: np.ndarray, fmt: str, names=None, **kw) -> LutImage:
+    """Shape the values as (axes..., channels): 1-D (n,) -> (n, 1); 2-D (h, w) -> (h, w, 1) and
+    (h, w, c <= 4) as is; 3-D (d, h, w) with w > 4 -> (d, h, w, 1) and (d, h, w, c <= 4) as is."""
     a = np.asarray(a, dtype=np.float64)
     if a.ndim == 1:
-        a = a[None, :, None]
+        a = a[:, None]
     elif a.ndim == 2:
         a = a[:, :, None]
     elif a.ndim == 3 and a.shape[2] > 4:
-        raise LutReadError(f"a {a.shape} array is a 3-D table; the doctor identifies 2-D LUTs "
-                           "(height, width[, channels <= 4])")
-    elif a.ndim != 3:
-        raise LutReadError(f"cannot read a {a.ndim}-D array as a LUT; expected (height, width[, channels])")
-    names = list(names) if names else [str(i) for i in range(a.shape[2])]
+        a = a[..., None]
+    elif a.ndim == 4 and a.shape[3] > 4:
+        raise LutReadError(f"a {a.shape} array has more than 4 channels (give (depth, height, width[, channels <= 4]))")
+    elif a.ndim > 4:
+        raise LutReadError(f"cannot read a {a.ndim}-D array as a LUT; expected 1 to 3 axes and up to 4 channels")
+    names = list(names) if names else [str(i) for i in range(a.shape[-1])]
     return LutImage(a, fmt, names, **kw)
 
 
@@ -213,7 +216,7 @@ def _ktx2_kv(data: bytes, offset: int, length: int) -> dict:
 
 
 def read_ktx2(data: bytes) -> LutImage:
-    """A 2-D KTX2 texture, level 0, in one of the UNORM / SFLOAT formats of a LUT."""
+    """A 1-D, 2-D or 3-D KTX2 texture, level 0, in one of the UNORM / SFLOAT formats of a LUT."""
     if data[:12] != _KTX2_ID:
         raise LutReadError("not a KTX2 file (bad identifier)")
     (vk, type_size, width, height, depth, layers, faces, levels, scheme) = struct.unpack_from("<9I", data, 12)
@@ -221,8 +224,8 @@ def read_ktx2(data: bytes) -> LutImage:
     if vk not in _VK:
         raise LutReadError(f"KTX2: vkFormat {vk} is not a LUT format this reader knows (R/RG/RGBA 8- or 16-bit "
                            "UNORM, 16/32-bit SFLOAT, A2B10G10R10_UNORM)")
-    if depth > 1 or faces != 1 or layers > 1:
-        raise LutReadError("KTX2: only a single 2-D image is identified (no depth, layers or cube faces)")
+    if faces != 1 or layers > 1:
+        raise LutReadError("KTX2: only a single 1-D, 2-D or 3-D image is identified (no layers or cube faces)")
     level0 = struct.unpack_from("<3Q", data, 80)
     offset, length, _ = level0
     buf = data[offset:offset + length]
@@ -235,8 +238,10 @@ def read_ktx2(data: bytes) -> LutImage:
     elif scheme != 0:
         raise LutReadError(f"KTX2: supercompression scheme {scheme} is not read (0 none, 2 zstd)")
     kind, names, storage, srgb = _VK[vk]
-    height = max(height, 1)
-    texels = _decode_texels(buf, kind, len(names), storage, width * height).reshape(height, width, len(names))
+    height, depth = max(height, 1), max(depth, 1)
+    texels = _decode_texels(buf, kind, len(names), storage, width * height * depth)
+    texels = texels.reshape((depth, height, width, len(names)) if depth > 1 else
+                            (width, len(names)) if height == 1 else (height, width, len(names)))
     transfer = "srgb" if srgb else "linear"
     if dfd_len >= 16:
         tf = data[dfd_off + 4 + 10]  # basic descriptor block byte 10: transferFunction (1 linear, 2 sRGB)
@@ -308,6 +313,15 @@ def _claims_from(attrs: dict) -> dict:
     return claims
 
 
+def _claimed_sizes(claims: dict) -> list[int] | None:
+    axes = claims.get("axes")
+    if isinstance(axes, dict):
+        return [len(v) for v in axes.values()] if all(isinstance(v, list) for v in axes.values()) else None
+    if isinstance(axes, list) and all(isinstance(a, list) and len(a) == 2 and isinstance(a[1], list) for a in axes):
+        return [len(a[1]) for a in axes]
+    return None
+
+
 def read_exr(data: bytes) -> LutImage:
     """An EXR image: its channels (bsdf-tab order if it says so), and a bsdf-tab file's claims."""
     import tempfile
@@ -335,6 +349,9 @@ def read_exr(data: bytes) -> LutImage:
     order = [c for c in order if not c.endswith("_err")]
     storage = "float16" if all(chans[c].dtype == np.float16 for c in order) else "float32"
     stack = np.stack([chans[c].astype(np.float64) for c in order], axis=-1)
+    sizes = _claimed_sizes(claims)
+    if sizes and int(np.prod(sizes)) == stack.shape[0] * stack.shape[1] and len(sizes) != 2:
+        stack = stack.reshape(*sizes, stack.shape[-1])  # bsdf-tab's layout: last axis along the width
     return _as_image(stack, "exr", order, storage=storage, transfer="linear", claims=claims)
 
 
