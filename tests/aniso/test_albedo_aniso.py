@@ -54,7 +54,11 @@ def E_ref(mu, phi, ax, ay, shadowing="correlated"):
 
 
 CASES = [(0.5, 0.3, 0.4, 1.0, "correlated"), (0.9, 1.2, 0.6, 0.5, "separable"), (0.3, 0.0, 0.5, 1.0, "correlated"),
-         (1.0, 0.0, 0.3, 0.8, "correlated")]
+         (1.0, 0.0, 0.3, 0.8, "correlated"),
+         # high mu, rough, aspect 10 and 6: where the psi panels next to P = 0 were a quarter turn
+         # wide (the kernel was 6.8e-3 off with an error estimate of 4.6e-4 before the fix)
+         (0.841, 0.94, 0.81, 1.0, "correlated"), (0.752, 1.15, 0.7569, 0.92, "correlated"),
+         (0.95, 0.4, 1.0, 1.0, "separable")]
 
 
 @pytest.mark.parametrize("mu,phi,alpha,a,shadowing", CASES)
