@@ -8,19 +8,13 @@ import json
 
 from bsdf_tab import __version__
 from bsdf_tab.cost import CostLimitError, estimate
-from bsdf_tab.errors import SpecError, TexelLimitError
+from bsdf_tab.errors import SpecError
 from bsdf_tab.io import json_default
 from bsdf_tab.scene import check_lookup_tol, is_scene, parse_scene, plan_scene
-from bsdf_tab.scene.plan import INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL
 
 from .cache import table_key
 
-__all__ = ["parse_scene_request", "parse_tol", "scene_key", "scene_plan_bytes", "scene_texel_cap"]
-
-#: The planner's cost for a table of N texels, in units of N texel integrations: its check grid
-#: (every cell midpoint added: up to 2^3 = 8 x the texels of a 3-D candidate), and about as
-#: much again for the smaller candidates tried before it.
-CHECK_FACTOR = 16.0
+__all__ = ["SceneBudget", "parse_scene_request", "parse_tol", "scene_key", "scene_plan_bytes"]
 
 
 def parse_tol(text, param: str = "tol") -> float | None:
@@ -43,16 +37,31 @@ def scene_key(parsed: dict, tol: float | None) -> str:
     return table_key(hashlib.sha256(canon.encode()).hexdigest(), __version__)
 
 
-def scene_texel_cap(lookup_tol: float, max_cost: float, scale: float = 1.0) -> int:
-    """The largest table (texels) whose planning the cost model predicts within ``max_cost`` core-seconds.
+class SceneBudget:
+    """The planner's pre-compute hook (:func:`bsdf_tab.scene.plan_scene`'s ``before_compute``):
+    the cost model's prediction (:func:`bsdf_tab.cost.estimate`) of every tabulation the planner
+    is about to run, added up; the tabulation that would take the sum above ``limit``
+    core-seconds is not run: :class:`~bsdf_tab.cost.CostLimitError` naming ``tol`` instead (413
+    ``too_costly``). A scene whose first tabulation is already above it is refused before
+    anything is computed; one whose search grows past it is stopped there."""
 
-    Priced as the dearest family (dielectric, adaptive) at the planner's integration tolerance
-    (``lookup_tol / INTEGRATION_DIVISOR``), times :data:`CHECK_FACTOR`.
-    """
-    itol = max(lookup_tol / INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL)
-    one = estimate({"table": "dielectric", "tolerance": itol, "axes": {"mu": [0.5], "alpha": [0.5], "eta": [1.5]}},
-                   scale=scale)
-    return max(1, int(max_cost / (CHECK_FACTOR * one.per_integration)))
+    def __init__(self, limit: float, scale: float = 1.0, tol: float | None = None):
+        self.limit, self.scale, self.tol = limit, scale, tol
+        self.spent = 0.0  # predicted core-seconds of the tabulations run so far
+        self.tabulations = 0
+
+    def __call__(self, spec: dict) -> None:
+        cost = estimate(spec, scale=self.scale)
+        if self.spent + cost.seconds > self.limit:
+            at = f" at tol={self.tol:g}" if self.tol is not None else ""
+            raise CostLimitError(
+                "tol",
+                f"planning this scene{at} is predicted to cost more than this service's limit of {self.limit:g} "
+                f"core-seconds ({self.spent:.3g} for the {self.tabulations} tabulation(s) run, {cost.seconds:.3g} "
+                f"for the next: {cost.texels} texels of {spec.get('table')}); loosen tol, or POST /jobs for big work",
+                None, self.limit)
+        self.spent += cost.seconds
+        self.tabulations += 1
 
 
 def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, max_cost: float | None = None,
@@ -60,29 +69,22 @@ def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, 
     """The answer of ``POST /scenes``: plan, then the JSON bytes (``checkpoint`` is the planner's log).
 
     ``planner`` defaults to :func:`bsdf_tab.scene.plan_scene` (tests count its calls). The cost
-    limit (``max_cost``, default ``settings.max_cost_seconds``) becomes a texel cap for the
-    planner (:func:`scene_texel_cap`): candidates above it are skipped before they are computed,
-    and a scene that needs larger tables is a :class:`~bsdf_tab.cost.CostLimitError` naming ``tol``.
+    limit (``max_cost``, default ``settings.max_cost_seconds``) is the planner's pre-compute hook
+    (:class:`SceneBudget`): every tabulation is priced by the cost model before it runs, and the
+    one that would take the predicted total above the limit is a
+    :class:`~bsdf_tab.cost.CostLimitError` naming ``tol`` (413 ``too_costly``). The texel limit
+    (``settings.max_texels``) bounds each planned table: candidates above it are skipped before
+    they are computed (none left: :class:`~bsdf_tab.errors.TexelLimitError`, 413).
     ``scheduler`` (the store's Dask client, when ``BSDF_TAB_SCHEDULER`` is set) computes the
     candidate tables on the cluster.
     """
     limit = settings.max_cost_seconds if max_cost is None else max_cost
     parsed = parse_scene(scene)
     lookup_tol = tol if tol is not None else parsed.get("lookup_tol")
-    cap = settings.max_texels
-    if lookup_tol is not None:
-        cap = min(cap, scene_texel_cap(float(lookup_tol), limit, settings.cost_scale))
-    # candidates above the cap are skipped before computing; none left -> 413
-    try:
-        extra = {"scheduler": scheduler} if scheduler is not None else {}
-        plan = (planner or plan_scene)(scene, tol, device=settings.device, workers=settings.workers, max_texels=cap,
-                                       log=checkpoint, **extra)
-    except TexelLimitError as exc:
-        if cap >= settings.max_texels:
-            raise  # the service's texel limit itself
-        raise CostLimitError("tol", f"at this lookup tolerance the scene needs tables whose planning is predicted to "
-                             f"cost more than {limit:g} core-seconds (tables above {cap} texels); loosen tol, or "
-                             "POST /jobs for big work", None, limit) from None
+    budget = SceneBudget(limit, settings.cost_scale, None if lookup_tol is None else float(lookup_tol))
+    extra = {"scheduler": scheduler} if scheduler is not None else {}
+    plan = (planner or plan_scene)(scene, tol, device=settings.device, workers=settings.workers,
+                                   max_texels=settings.max_texels, log=checkpoint, before_compute=budget, **extra)
     tables = {}
     for t in plan.tables:
         data = t.table.to_exr_bytes()

@@ -71,7 +71,13 @@ def material_entry(m: dict, tp, rname: str) -> dict:
     src = {rname: r}
     if m["type"] == "dielectric":
         src["eta"] = m["eta_axis"]
+    if m["type"] == "anisotropic":
+        src["anisotropy"] = m["aniso_axis"]
     for ax in tp.axes[1:]:
+        if ax.name == "phi_v":
+            coords["phi_v"] = ("view azimuth from the tangent (the alpha_x direction), folded into [0, pi/2]: "
+                               "atan2(|sin phi|, |cos phi|)")
+            continue
         given = src[ax.name]
         if ax.mode == "discrete":
             idx = [int(ax.coord(np.array([v]))[0]) for v in given["values"]]
@@ -87,6 +93,9 @@ def material_entry(m: dict, tp, rname: str) -> dict:
     elif m["type"] == "conductor":
         entry["fresnel"] = {"type": "conductor", "eta": m["eta"], "k": m["k"]}
         entry["formula"] = "E (albedo with this conductor's exact Fresnel)"
+    elif m["type"] == "anisotropic":
+        entry["formula"] = ("E (F = 1) of anisotropic GGX: alpha_x = alpha / sqrt(1 - 0.9 a), "
+                            "alpha_y = alpha sqrt(1 - 0.9 a), a = anisotropy")
     else:
         entry["formula"] = "R, T (energy form; eta = eta_o / eta_i)"
     return entry

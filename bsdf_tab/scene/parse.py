@@ -9,11 +9,12 @@ A *scene* is a JSON object with a ``materials`` list (``docs/scenes.md``,
        {"name": "plastic", "type": "schlick", "f0": 0.04, "alpha": [0.1, 0.2]},
        {"name": "glass", "type": "dielectric", "eta": 1.5, "alpha": 0.05}]}
 
-Material keys: ``name`` (unique), ``type`` (``conductor``, ``dielectric``, ``schlick``),
+Material keys: ``name`` (unique), ``type`` (``conductor``, ``dielectric``, ``schlick``, ``anisotropic``),
 ``distribution``, ``shadowing``, one of ``alpha`` or ``roughness`` (alpha = roughness^2) as a
 number, a list of numbers or ``{"range": [lo, hi]}``; conductors: ``eta`` and ``k`` (complex
 IOR; or ``"ior": [eta, k]``); dielectrics: ``eta`` (number, list or range; eta = eta_o / eta_i);
-Schlick: ``f0`` (number or RGB list; it does not enter the table). The scene's ``tolerance`` is
+Schlick: ``f0`` (number or RGB list; it does not enter the table); anisotropic (GGX, F = 1):
+``anisotropy`` (number, list or range in [0, 1]). The scene's ``tolerance`` is
 its default lookup tolerance (the max lookup error; normalized as ``lookup_tol``).
 
 What a value may be is decided once, by the table specs: the distributions, shadowings, axis
@@ -44,8 +45,11 @@ __all__ = [
     "parse_scene",
 ]
 
-#: Material type -> the table kind its materials are planned into (the type is its Fresnel type).
-MATERIAL_TABLES = {"conductor": "albedo", "dielectric": "dielectric", "schlick": "dfg"}
+#: Material type -> the table kind its materials are planned into (the type is its Fresnel type;
+#: ``anisotropic``: anisotropic GGX, F = 1, the energy table of energy compensation).
+MATERIAL_TABLES = {"conductor": "albedo", "dielectric": "dielectric", "schlick": "dfg", "anisotropic": "albedo_aniso"}
+#: Distributions an anisotropic material may use (the ``albedo_aniso`` kernel is GGX's).
+ANISO_DISTRIBUTIONS = ("ggx",)
 #: How the renderer reads the tables.
 INTERPOLATIONS = ("linear", "nearest")
 #: The lookup tolerance (max lookup error, absolute, per channel) a scene may ask for.
@@ -54,7 +58,8 @@ SCENE_KEYS = ("name", "materials", "lookup", "tolerance")
 LOOKUP_KEYS = ("interpolation", "spacings")
 COMMON_KEYS = ("name", "type", "distribution", "shadowing", "alpha", "roughness")
 #: Keys of each material type: its Fresnel parameters (conductors also ``ior``: [eta, k]).
-MATERIAL_KEYS = {t: FRESNEL_TYPES[t] + (("ior",) if t == "conductor" else ()) for t in MATERIAL_TABLES}
+MATERIAL_KEYS = {t: FRESNEL_TYPES[t] + (("ior",) if t == "conductor" else ()) for t in MATERIAL_TABLES if t in FRESNEL_TYPES}
+MATERIAL_KEYS["anisotropic"] = ("anisotropy",)
 SPACING_ALIASES = {"sqrt": "square"}  # t uniform in sqrt(x)
 
 
@@ -210,7 +215,8 @@ def _material(m: Any, p: str) -> dict:
     out = {
         "name": name,
         "type": mtype,
-        "distribution": choice(m.get("distribution", "ggx"), DISTRIBUTIONS, f"{p}.distribution"),
+        "distribution": choice(m.get("distribution", "ggx"), ANISO_DISTRIBUTIONS if mtype == "anisotropic"
+                               else DISTRIBUTIONS, f"{p}.distribution"),
         "shadowing": choice(m.get("shadowing", "correlated"), SHADOWINGS, f"{p}.shadowing"),
     }
     given = [k for k in ("alpha", "roughness") if k in m]
@@ -221,6 +227,11 @@ def _material(m: Any, p: str) -> dict:
     out["rough"] = _values(m[rk], rk, f"{p}.{rk}")
     if mtype == "conductor":
         out.update(_conductor(m, p))
+    elif mtype == "anisotropic":
+        if "anisotropy" not in m:
+            raise SpecError(f"{p}.anisotropy", "is required for an anisotropic material (a in [0, 1]: "
+                            "alpha_x = alpha / sqrt(1 - 0.9 a), alpha_y = alpha sqrt(1 - 0.9 a))")
+        out["aniso_axis"] = _values(m["anisotropy"], "anisotropy", f"{p}.anisotropy")
     elif mtype == "dielectric":
         if "eta" not in m:
             raise SpecError(f"{p}.eta", "is required for a dielectric (eta = eta_o / eta_i)")

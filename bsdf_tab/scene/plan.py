@@ -52,7 +52,12 @@ __all__ = ["ScenePlan", "TablePlan", "plan_scene", "FIXED_SIZES", "MAX_CHECK_TEX
 
 INTEGRATION_DIVISOR = 20.0  # a table's integration tolerance: lookup_tol / INTEGRATION_DIVISOR
 MIN_INTEGRATION_TOL = 1e-9
-FIXED_SIZES = {"albedo": (32, 32), "dfg": (32, 32), "dielectric": (16, 16, 16)}
+#: albedo_aniso: no engine ships one (they use the isotropic collapse); its default axes
+#: (``bsdf_tab.axes.AXIS_DEFAULTS``: mu 32, phi_v 9, alpha 32, anisotropy 8), what ``bsdf-tab bake`` writes.
+FIXED_SIZES = {"albedo": (32, 32), "dfg": (32, 32), "dielectric": (16, 16, 16), "albedo_aniso": (32, 9, 32, 8)}
+#: The range of an axis in every table of a kind (mu; phi_v, the view azimuth folded into
+#: [0, pi/2] by E's symmetries E(phi) = E(-phi) = E(pi - phi)).
+FULL_RANGES = {"mu": (0.0, 1.0), "phi_v": (0.0, 0.5 * math.pi)}
 
 
 # --------------------------------------------------------------------------- plan data
@@ -102,7 +107,11 @@ class TablePlan:
         out = []
         for a, n in zip(self.axes, self.fixed_shape):
             lo, hi = (min(a.values), max(a.values)) if a.mode == "discrete" else a.range
-            if a.name != "eta":
+            if a.name in FULL_RANGES:
+                lo, hi = FULL_RANGES[a.name]
+            elif a.name == "anisotropy":
+                lo, hi = 0.0, 1.0
+            elif a.name != "eta":
                 lo, hi = 0.0, max(1.0, hi)
             out.append(AxisPlan(a.name, "interp", range=(lo, hi), spacing="linear", size=n) if hi > lo
                        else AxisPlan(a.name, "discrete", values=[lo]))
@@ -324,13 +333,16 @@ def plan_scene(
     for key, mats in groups.items():
         kind, dist, shadowing = key[:3]
         rname = "roughness" if all(m["rough_name"] == "roughness" for m in mats) else "alpha"
-        axes = [AxisPlan("mu", "interp", range=(0.0, 1.0), spacing=spacings[0], size=2),
+        axes = [AxisPlan("mu", "interp", range=FULL_RANGES["mu"], spacing=spacings[0], size=2),
                 _merge_axis(rname, _rough_entries(mats, rname), spacings)]
         fresnel = None
         if kind == "albedo":
             fresnel = {"type": "conductor", "eta": key[3], "k": key[4]}
         elif kind == "dielectric":
             axes.append(_merge_axis("eta", [m["eta_axis"] for m in mats], spacings))
+        elif kind == "albedo_aniso":  # (mu, phi_v, alpha, anisotropy): phi_v varies per shading point
+            axes.insert(1, AxisPlan("phi_v", "interp", range=FULL_RANGES["phi_v"], spacing=spacings[0], size=2))
+            axes.append(_merge_axis("anisotropy", [m["aniso_axis"] for m in mats], spacings))
         base = f"{dist}_{shadowing}_{kind}"
         counts[base] = counts.get(base, 0) + 1
         fname = f"{base}_{counts[base]}.exr" if kind == "albedo" else f"{base}.exr"

@@ -77,6 +77,10 @@ class Verifier:
     def values(self, lists: list[np.ndarray]) -> dict[str, np.ndarray]:
         return self.store.grid(self.base, [(a.name, v) for a, v in zip(self.tp.axes, lists)])
 
+    def prefetch(self, grids: list[list[np.ndarray]]) -> None:
+        """Compute the missing texels of several grids in one go (fewer, larger launches)."""
+        self.store.prefetch(self.base, [a.name for a in self.tp.axes], grids)
+
     def errors(self, trial: list[AxisPlan], table: dict, lists: list[np.ndarray]) -> np.ndarray:
         """Lookup error of the candidate (``table``: its values) at the grid ``lists``."""
         grids = np.meshgrid(*lists, indexing="ij")
@@ -97,11 +101,11 @@ class Verifier:
         and that point's coordinates)."""
         coarse = [a.nodes() for a in trial]
         fine = self.fine(trial)
+        crosses = [[fine[j] if j == i else c for j, c in enumerate(coarse)] for i in self.interp]
+        self.prefetch([coarse] + crosses)
         table = self.values(coarse)
         per_axis, worst = [], []
-        for i in self.interp:
-            lists = list(coarse)
-            lists[i] = fine[i]
+        for i, lists in zip(self.interp, crosses):
             err = self.errors(trial, table, lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             k = np.unravel_index(int(np.argmax(sub)), sub.shape)
@@ -114,11 +118,12 @@ class Verifier:
         refined grid through ``worst_parent`` (the parent's worst point per interp axis)."""
         coarse = [a.nodes() for a in trial]
         fine = self.fine(trial)
+        lines = [[fine[i] if j == i else np.array([x]) for j, x in enumerate(worst_parent[k])]
+                 for k, i in enumerate(self.interp)]
+        self.prefetch([coarse] + lines)
         table = self.values(coarse)
         bound, worst = 0.0, []
-        for k, i in enumerate(self.interp):
-            lists = [np.array([x]) for x in worst_parent[k]]
-            lists[i] = fine[i]
+        for k, (i, lists) in enumerate(zip(self.interp, lines)):
             err = self.errors(trial, table, lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             j = int(np.argmax(sub))
@@ -139,6 +144,7 @@ class Verifier:
         Only those texels are computed: the values of the others do not enter the lookup."""
         lists = self.fine(trial)
         reads = [texels_read(ax, x, self.interpolation) for ax, x in zip(axes, lists)]
+        self.prefetch([lists, [ax.nodes()[r] for ax, r in zip(axes, reads)]])
         sub = self.values([ax.nodes()[r] for ax, r in zip(axes, reads)])
         full = {}
         for ch, v in sub.items():

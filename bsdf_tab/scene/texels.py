@@ -82,17 +82,46 @@ class TexelStore:
         """Values and ``_err`` channels of the family ``base`` (a spec without axes) on the grid
         of ``axes`` ((name, node values) in table order), computing only the missing texels."""
         names = [n for n, _ in axes]
+        self.prefetch(base, names, [[v for _, v in axes]])
         nodes = [np.atleast_1d(np.asarray(v, dtype=np.float64)) for _, v in axes]
-        fam_key = self.family(base, names)
-        fam = self._families.setdefault(fam_key, {})
-        chans = list(channel_names(base["table"]))
-        chans += [c + "_err" for c in chans]
+        fam = self._families[self.family(base, names)]
         keys = [[_key(x) for x in v] for v in nodes]
         shape = tuple(len(v) for v in nodes)
         self.requested += int(np.prod(shape))
-        missing = [idx for idx in np.ndindex(*shape) if tuple(k[i] for k, i in zip(keys, idx)) not in fam]
-        for block in cover(missing, len(shape)):
-            spec = dict(base, axes={n: [float(nodes[a][i]) for i in block[a]] for a, n in enumerate(names)})
+        flat = [fam[tuple(k[i] for k, i in zip(keys, idx))] for idx in np.ndindex(*shape)]
+        chans = self._channels(base)
+        data = np.asarray(flat, dtype=np.float64).reshape(shape + (len(chans),))
+        return {c: data[..., i] for i, c in enumerate(chans)}
+
+    @staticmethod
+    def _channels(base: dict) -> list[str]:
+        chans = list(channel_names(base["table"]))
+        return chans + [c + "_err" for c in chans]
+
+    def prefetch(self, base: dict, names: list[str], grids: list[list[np.ndarray]]) -> None:
+        """Compute the texels of several grids (each a list of node values per axis) that are
+        not known yet, together: their union covered by as few tensor blocks as it takes."""
+        fam_key = self.family(base, names)
+        fam = self._families.setdefault(fam_key, {})
+        axis_nodes: list[dict[float, float]] = [{} for _ in names]  # key -> value, per axis
+        missing = set()
+        for lists in grids:
+            nodes = [np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in lists]
+            keys = [[_key(x) for x in v] for v in nodes]
+            for a, (k, v) in enumerate(zip(keys, nodes)):
+                for kk, vv in zip(k, v):
+                    axis_nodes[a].setdefault(kk, float(vv))
+            for idx in np.ndindex(*(len(v) for v in nodes)):
+                point = tuple(k[i] for k, i in zip(keys, idx))
+                if point not in fam:
+                    missing.add(point)
+        if not missing:
+            return
+        order = [sorted(axis_nodes[a]) for a in range(len(names))]
+        pos = [{k: i for i, k in enumerate(o)} for o in order]
+        chans = self._channels(base)
+        for block in cover([tuple(pos[a][p[a]] for a in range(len(names))) for p in missing], len(names)):
+            spec = dict(base, axes={n: [axis_nodes[a][order[a][i]] for i in block[a]] for a, n in enumerate(names)})
             if self.before is not None:
                 self.before(spec)
             table = self.compute(spec)
@@ -100,7 +129,4 @@ class TexelStore:
             data = np.stack([np.asarray(table.channels[c], dtype=np.float64) for c in chans], axis=-1)
             self.texels += int(np.prod(data.shape[:-1]))
             for local in np.ndindex(*data.shape[:-1]):
-                fam[tuple(keys[a][block[a][i]] for a, i in enumerate(local))] = data[local]
-        flat = [fam[tuple(k[i] for k, i in zip(keys, idx))] for idx in np.ndindex(*shape)]
-        data = np.asarray(flat, dtype=np.float64).reshape(shape + (len(chans),))
-        return {c: data[..., i] for i, c in enumerate(chans)}
+                fam[tuple(order[a][block[a][i]] for a, i in enumerate(local))] = data[local]

@@ -7,8 +7,12 @@ Body: a scene JSON object (``materials``, optional ``lookup`` and ``tolerance``)
      "tables": {"<file>.exr": {"format": "exr", "encoding": "base64", "bytes": n, "data": "..."}}}
 
 Errors: a bad scene or tolerance -> 400 naming the parameter (``materials[0].alpha``), a
-planned table above the service's texel limit -> 413 (such candidates are skipped before
-anything is computed). The planner's own caps (nodes per axis, check texels) bound the computation. Planning runs in the compute pool, off the event loop.
+planned table above the service's texel limit -> 413 ``too_many_texels`` (such candidates are
+skipped before anything is computed), a planning whose predicted cost (the cost model, before
+each tabulation the planner runs: :class:`service.scenes.SceneBudget`) exceeds the service's
+``max_cost_seconds`` -> 413 ``too_costly`` naming ``tol``, refused before the tabulation that
+would exceed it. The planner's own caps (nodes per axis, check texels) bound the computation.
+Planning runs in the compute pool, off the event loop.
 
 The planner is deterministic, so the answer is cached like a table: key = package version +
 sha256 of the normalized scene and ``tol``; simultaneous requests for one scene share one
@@ -36,7 +40,8 @@ _RESPONSES = {
     200: {"description": "the plan and the tables", "content": {"application/json": {}}},
     304: {"description": "not modified (If-None-Match matched the ETag)"},
     400: {"description": "invalid scene or tolerance (the error names it)", **_ERR},
-    413: {"description": "body too large / a planned table above the texel limit", **_ERR},
+    413: {"description": "body too large / a planned table above the texel limit / the planning's predicted cost "
+                 "above the limit (too_costly, param tol)", **_ERR},
     503: {"description": "too many computations queued (retry later), or cancelled / out of time", **_ERR},
 }
 
