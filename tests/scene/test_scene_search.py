@@ -1,0 +1,119 @@
+"""bsdf_tab.scene.search and .texels: the reuse (one texel store per run, cross points first,
+lazy refinement of losing candidates, the fixed-size comparison on the texels it reads) does
+not change the plan. The reference is the documented search written again here without any
+reuse: every candidate verified on its whole refined grid, each one tabulated directly by
+``bsdf_tab.api.tabulate`` and read with SciPy's grid interpolator in the texel coordinate."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.interpolate import RegularGridInterpolator
+
+import bsdf_tab.api
+from bsdf_tab.api import tabulate
+from bsdf_tab.scene import plan_scene
+from bsdf_tab.scene.texels import cover
+
+GOLD = {"materials": [{"name": "gold", "type": "conductor", "eta": 0.18, "k": 3.42, "roughness": {"range": [0.3, 0.6]}}]}
+
+
+def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: float, spacings=("linear", "square")):
+    """Best-first over (spacing per axis, doubling-ladder sizes): fewest texels first, ties the
+    earlier spacing combination; verify on the refined grid (2n - 1 nodes per axis): error =
+    max |multilinear(even nodes) - value| + value's error; pass at 0.8 tol; a failing candidate
+    doubles the axis whose points that are midpoints along it only err most."""
+    combos = list(itertools.product(spacings, repeat=len(axes)))
+    frontier = [(2 ** len(axes), ci, (2,) * len(axes)) for ci in range(len(combos))]
+    texels = 0
+    while frontier:
+        frontier.sort()
+        _, ci, sizes = frontier.pop(0)
+        fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
+                     for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci])}
+        fine = tabulate(dict(base, axes=fine_axes))
+        texels += fine.channels["E"].size
+        value, error = fine.channels["E"], fine.channels["E_err"]
+        coarse = value[tuple(slice(None, None, 2) for _ in axes)]
+        coords = []
+        for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci]):
+            g = np.sqrt if sp == "square" else (lambda x: x)
+            coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
+        interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
+        mesh = np.meshgrid(*coords, indexing="ij")
+        looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
+        err = np.abs(looked - value) + error
+        if err.max() <= 0.8 * tol:
+            return combos[ci], sizes, float(err.max()), texels
+        per_axis = []
+        for a in range(len(axes)):
+            sl = tuple(slice(1, None, 2) if b == a else slice(None, None, 2) for b in range(len(axes)))
+            per_axis.append(err[sl].max())
+        k = int(np.argmax(per_axis))
+        grown = tuple(2 * n - 1 if j == k else n for j, n in enumerate(sizes))
+        frontier.append((int(np.prod(grown)), ci, grown))
+    raise AssertionError("no candidate passed")
+
+
+def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
+    tol = 4e-3
+    counted = []
+    real = bsdf_tab.api.tabulate
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
+    plan = plan_scene(GOLD, tol)
+    monkeypatch.undo()
+    (t,) = plan.tables
+    base = dict(t.spec(), tolerance=t.integration_tol)
+    base.pop("axes")
+    combo, sizes, err, ref_texels = _reference_search(base, [("mu", 0.0, 1.0), ("roughness", 0.3, 0.6)], tol)
+    assert (t.axes[0].spacing, t.axes[1].spacing) == combo and t.shape == sizes, (t.shape, sizes, combo)
+    # the same texels (each integrated on its own), so the same error up to the integration error
+    assert abs(t.max_error - err) <= t.integration_tol, (t.max_error, err)
+    # the baked values are those of the planned table tabulated directly
+    direct = tabulate(dict(base, axes={a.name: a.spec() for a in t.axes}))
+    assert np.abs(t.table.channels["E"] - direct.channels["E"]).max() <= 2 * t.integration_tol
+    # and the reuse saved work: fewer texels than verifying every candidate in full (the
+    # reference does not even count the fixed-size comparison, which the plan includes)
+    computed = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
+    assert computed == plan.texels_computed and computed < 0.6 * ref_texels, (computed, ref_texels)
+
+
+def test_cover_is_exact():
+    rng = np.random.default_rng(3)
+    for dims in (1, 2, 3):
+        shape = (5, 4, 3)[:dims]
+        for _ in range(20):
+            pts = [idx for idx in np.ndindex(*shape) if rng.random() < 0.5]
+            blocks = cover(pts, dims)
+            got = [p for b in blocks for p in itertools.product(*b)]
+            assert sorted(got) == sorted(pts) and len(got) == len(set(got))
+    # a grid minus a nested sub-grid: one block per axis
+    fine = [(i, j) for i in range(9) for j in range(5) if not (i % 2 == 0 and j % 2 == 0)]
+    assert len(cover(fine, 2)) == 2
+
+
+def test_before_compute_sees_every_tabulation_and_can_stop_the_plan(monkeypatch):
+    seen, counted = [], []
+    real = bsdf_tab.api.tabulate
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
+    plan = plan_scene(GOLD, 2e-2, before_compute=seen.append)
+    assert seen == counted and len(seen) == plan.tabulate_calls > 0
+
+    class Stop(Exception):
+        pass
+
+    budget = {"texels": 60}
+
+    def hook(spec):
+        n = int(np.prod([len(v) for v in spec["axes"].values()]))
+        if n > budget["texels"]:
+            raise Stop(n)
+        budget["texels"] -= n
+
+    counted.clear()
+    with pytest.raises(Stop):
+        plan_scene(GOLD, 1e-3, before_compute=hook)
+    # nothing was computed past the limit: the refused tabulation never ran
+    assert sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted) <= 60
