@@ -87,3 +87,47 @@ def test_service_scene_answers_are_cached_with_etag(tmp_path, monkeypatch):
     with TestClient(create_app(Settings(cache_dir=tmp_path / "cache", warmup=False, workers=2))) as client:
         assert client.post("/scenes", params={"tol": "2e-3"}, json=TINY).content == first.content
     assert len(calls) == 2
+
+
+def test_service_scene_cost_guard_stops_at_the_predicted_limit(tmp_path, monkeypatch):
+    """The cost model prices every tabulation before it runs (service.scenes.SceneBudget): the
+    one that would take the predicted total above max_cost_seconds is refused (413 too_costly,
+    param tol), and the tabulations that did run stay within the limit."""
+    import bsdf_tab.api
+    from bsdf_tab.cost import estimate
+
+    computed = []
+    real = bsdf_tab.api.tabulate
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: computed.append(spec) or real(spec, **kw))
+    scene = {"materials": [{"name": "m", "type": "conductor", "eta": 2.5, "k": 3.0, "alpha": {"range": [0.2, 0.6]}}]}
+    limit = 0.5
+    settings = Settings(cache_dir=tmp_path / "cache", warmup=False, workers=1, max_cost_seconds=limit)
+    with TestClient(create_app(settings)) as client:
+        r = client.post("/scenes", params={"tol": "1e-3"}, json=scene)
+        assert r.status_code == 413, r.text[:300]
+        err = r.json()["error"]
+        assert err["code"] == "too_costly" and err["param"] == "tol" and err["allowed"]["max_cost_seconds"] == limit
+        assert computed, "the guard stopped a running plan, not only refused it up front"
+        predicted = sum(estimate(s).seconds for s in computed)
+        assert predicted <= limit, predicted
+        # the same scene at a looser tolerance is within the limit and planned
+        computed.clear()
+        ok = client.post("/scenes", params={"tol": "3e-2"}, json=scene)
+        assert ok.status_code == 200, ok.text[:300]
+        assert sum(estimate(s).seconds for s in computed) <= limit
+
+
+def test_scene_budget_refuses_exactly_the_tabulation_that_exceeds_the_limit():
+    from bsdf_tab.cost import CostLimitError, estimate
+    from service.scenes import SceneBudget
+
+    specs = [{"table": "dfg", "axes": {"mu": {"size": n}, "alpha": [0.3]}, "tolerance": 5e-5} for n in (3, 5, 9, 17, 33)]
+    costs = [estimate(s).seconds for s in specs]
+    limit = sum(costs[:3]) + 0.5 * costs[3]  # the fourth would exceed it
+    budget = SceneBudget(limit, tol=1e-3)
+    for s in specs[:3]:
+        budget(s)
+    with pytest.raises(CostLimitError) as info:
+        budget(specs[3])
+    assert info.value.param == "tol" and info.value.limit == limit and "tol=0.001" in info.value.message
+    assert budget.tabulations == 3 and abs(budget.spent - sum(costs[:3])) <= 1e-12
