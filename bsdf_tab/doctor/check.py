@@ -75,6 +75,9 @@ def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "l
     if not np.isfinite(data).any() or all(np.nanmax(data[..., c]) - np.nanmin(data[..., c]) <= 1e-6
                                           for c in range(data.shape[-1])):
         raise LutReadError("every channel is constant: nothing to identify")
+    if expect_axes is not None and len(expect_axes) != data.ndim - 1:
+        raise LutReadError(f"give {data.ndim - 1} axis names for this {data.ndim - 1}-D LUT, got {len(expect_axes)} "
+                           f"({', '.join(map(str, expect_axes))})", "axes")
     if data.ndim != 3:
         kind = "albedo_avg" if data.ndim == 2 else "dielectric"
         return check_nd(kind, img, data, expect_axes=expect_axes, heatmap=heatmap, name=name)

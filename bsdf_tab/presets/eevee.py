@@ -8,13 +8,19 @@ lookup remaps by half a texel, ``lut_coords``); perceptual roughness r = lut_coo
 weight G1(L) from ``bxdf_ggx_eval_reflection`` / ``_refraction``, i.e. separable Smith
 G1(V) G1(L).
 
-- ``brdf_ggx[64][64][3]`` [y][x]: (scale, bias, metal_bias) with Schlick's (1 - v.h)^5 split:
-  F0 scale + F90 bias (metal_bias is the F82 tint term, not here).
+- ``brdf_ggx[64][64][2]`` [y][x] (``bsdf_split_sum_ggx`` in older EEVEE Next; the generator now
+  also returns metal_bias, the F82 tint term, not here): (scale, bias) with Schlick's
+  (1 - v.h)^5 split, F0 scale + F90 bias. Measured against the shipped rows y = 56..63:
+  mean |diff| 3e-5 (docs/presets.md), and correlated shadowing would be off by 0.36.
 - ``btdf_ggx[16][64][64][1]`` [z = roughness][y][x]: IOR > 1 with x = sqrt((ior - 1)/(ior + 1))
   (f = clamp(x^2, 1e-4, 0.9999), ior = (1 + f)/(1 - f)); EEVEE stores the Schlick factor
   int (1 - (1 - |h.v|)^5) btdf cos, used as transmittance = (1 - F0) factor. Our table kinds
   have the exact dielectric Fresnel only, so this preset stores the exact transmittance T
-  itself (use it without EEVEE's (1 - F0) factor).
+  itself: it does NOT drop into EEVEE's shader, which multiplies by (1 - F0) again (EEVEE's
+  form would be T / (1 - F0), F0 = x^4; it needs a per-ior scale in the preset recipe, which
+  ``bsdf_tab.presets.build`` does not have yet). EEVEE's last IOR node is x = 1: f = 0.9999,
+  ior = 19999, beyond the spec's eta domain (<= 100); it is computed at ior 100 (T up to 0.039
+  there, where T at ior 19999 is about 2e-4).
 
 Both are uploaded into EEVEE's utility texture array (64 x 64 layers, RGBA16F).
 """

@@ -7,6 +7,12 @@ From ``servers/rendering/renderer_rd/shaders/forward_clustered/integrate_dfg.gls
 (``scene_forward_clustered_inc.glsl``). Channels: r = int Fc G_Vis (our B), g = int G_Vis (our
 E = A + B, F = 1); specular = (f90 - f0) r + f0 g, energy compensation from g; b = the cloth
 (Charlie) term, not here. Shadowing: Schlick-GGX G1 with k = alpha / 2, separable.
+
+Godot's generator writes row y at roughness ``(SIZE - y + 0.5) / SIZE`` = (128.5 - y)/128
+(``main()`` in integrate_dfg.glsl), one texel above the (127.5 - y)/128 its lookup
+``1 - roughness`` reads there (row 0 at 1.0039); this preset follows the lookup, so it is the
+table Godot's shader expects. Against Godot's own numbers (the shader run in NumPy,
+``bench/compare_peers.py --engines``) the differences are its Schlick-GGX G: docs/presets.md.
 """
 
 from __future__ import annotations
@@ -40,7 +46,8 @@ PRESET_LIST = [
             "specular = (f90 - f0) r + f0 g",
             "layout": "[roughness, mu] with roughness decreasing down the rows (row 0 = roughness 1 - 0.5/128)",
             "storage": "rgba16f image (float16)",
-            "not_reproduced": "Godot's 1024 NDF samples and Schlick-GGX G; the b (cloth / Charlie) channel",
+            "not_reproduced": "Godot's 1024 NDF samples and Schlick-GGX G; its generator's rows, computed one "
+            "texel off its lookup at (128.5 - k)/128; the b (cloth / Charlie) channel",
         },
         file_format="ktx2", storage="float16",
     ),

@@ -61,8 +61,9 @@ def _axes(text: str | None):
     if text is None:
         return None
     names = [a.strip() for a in text.split(",")]
-    if len(names) != 2 or not all(names):
-        raise _bad("axes", f"must be two axis names, rows first (mu,roughness), got {text[:40]!r}")
+    if not 1 <= len(names) <= 3 or not all(names):
+        raise _bad("axes", f"must be 1 to 3 axis names, the file's first axis first (mu,roughness or "
+                           f"ior,mu,roughness), got {text[:40]!r}")
     return names
 
 
@@ -116,7 +117,7 @@ def check_payload(data: bytes, name: str, shape, array_values: str, axes, heatma
              "schema": {"type": "string", "enum": list(ARRAY_VALUES), "default": "float"},
              "description": "how an array file's numbers are read"},
             {"name": "axes", "in": "query", "required": False, "schema": {"type": "string"},
-             "description": "the axes the file should have, rows first (mu,roughness)"},
+             "description": "the axes the file should have, its first axis first (mu,roughness; ior,mu,roughness)"},
             {"name": "heatmap", "in": "query", "required": False, "schema": {"type": "boolean", "default": False},
              "description": "add the error heatmap as a base64 PNG (heatmap_png)"},
         ],

@@ -59,7 +59,27 @@ def test_array_file_with_shape(client):
     err(r, 400, "shape")
 
 
+def test_3d_glass_table_and_its_axes(client):
+    """A 3-D R + T table [ior, mu, roughness] (Cycles' z axis, written here) is identified over HTTP."""
+    z = np.clip(np.arange(6) / 5, 1e-4, 0.99)
+    ior = (1 + z**2) / (1 - z**2)
+    u = np.arange(6) / 5
+    t = bsdf_tab.tabulate({"table": "dielectric", "tolerance": 1e-6, "shadowing": "correlated",
+                           "axes": {"mu": [float(x) for x in u], "roughness": [float(x) for x in u],
+                                    "eta": [float(x) for x in ior]}})
+    rt = np.transpose(np.asarray(t.channels["R"]) + np.asarray(t.channels["T"]), (2, 0, 1))
+    buf = io.BytesIO()
+    np.save(buf, rt)
+    r = client.post("/check?axes=ior,mu,roughness", content=buf.getvalue())
+    assert r.status_code == 200, r.text
+    rep = r.json()
+    assert (rep["table"], rep["quantity"], rep["eta"][:7]) == ("dielectric", "R+T", "eta > 1")
+    assert [a["name"] for a in rep["axes"]] == ["ior", "mu", "roughness"] and rep["findings"] == []
+    err(client.post("/check?axes=ior,mu", content=buf.getvalue()), 400, "axes")
+
+
 @pytest.mark.parametrize("query,param", [("array_values=int", "array_values"), ("axes=mu", "axes"),
+                                         ("axes=a,b,c,d", "axes"),
                                          ("heatmap=maybe", "heatmap"), ("color=1", "color")])
 def test_bad_parameters(client, flipped_npy, query, param):
     err(client.post(f"/check?{query}", content=flipped_npy), 400, param)
