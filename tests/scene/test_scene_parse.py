@@ -127,6 +127,11 @@ def test_lookup_tol_bounds():
 
 def test_toml_scene_is_the_json_scene():
     assert parse_scene(load_scene_file(EXAMPLES / "scene.toml")) == parse_scene(load_scene_file(EXAMPLES / "scene.json"))
+    aniso = parse_scene(load_scene_file(EXAMPLES / "scene_aniso.toml"))
+    assert aniso == parse_scene(load_scene_file(EXAMPLES / "scene_aniso.json"))
+    brushed = aniso["materials"][0]
+    assert brushed["type"] == "anisotropic" and brushed["aniso_axis"] == {"values": [0.6]}
+    assert brushed["rough"] == {"values": [0.5]} and brushed["distribution"] == "ggx"
 
 
 def test_scene_files_errors_are_one_line(tmp_path):
