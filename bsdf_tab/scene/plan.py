@@ -22,7 +22,11 @@ lookup error; the CLI's ``--tol``, the service's ``tol=``) and returns a :class:
   whose midpoints err most is refined first. Every spacing combination is tried; the one with
   the fewest texels wins (ties: the first, in the order the scene lists spacings).
 - each table is integrated at ``lookup_tol / 20`` (its spec's ``tolerance``, the integration
-  error). Every table is computed by :func:`bsdf_tab.api.tabulate`, memoized by spec.
+  error). Every texel is computed by :func:`bsdf_tab.api.tabulate`, once per planning run
+  (:mod:`.texels`); the search and its checks are :mod:`.search`.
+- anisotropic materials share one ``albedo_aniso`` table (mu, phi_v, alpha, anisotropy) -> E
+  (F = 1) per shadowing; phi_v (the view azimuth from the tangent, folded into [0, pi/2]) is
+  always interpolated, like mu.
 
 Bytes are counted as float32 value channels (error channels are not shipped to a renderer).
 The fixed-size alternative is one Cycles-style table per planned table: 32 x 32 for the 2-D
@@ -52,6 +56,7 @@ __all__ = ["ScenePlan", "TablePlan", "plan_scene", "FIXED_SIZES", "MAX_CHECK_TEX
 
 INTEGRATION_DIVISOR = 20.0  # a table's integration tolerance: lookup_tol / INTEGRATION_DIVISOR
 MIN_INTEGRATION_TOL = 1e-9
+SMALL_BLOCK = 32  # tabulations of fewer texels run on one worker thread
 #: albedo_aniso: no engine ships one (they use the isotropic collapse); its default axes
 #: (``bsdf_tab.axes.AXIS_DEFAULTS``: mu 32, phi_v 9, alpha 32, anisotropy 8), what ``bsdf-tab bake`` writes.
 FIXED_SIZES = {"albedo": (32, 32), "dfg": (32, 32), "dielectric": (16, 16, 16), "albedo_aniso": (32, 9, 32, 8)}
@@ -211,7 +216,10 @@ class _Cache:
         key = json.dumps(spec, sort_keys=True)
         if key not in self.tables:
             self.calls += 1
-            self.tables[key] = api.tabulate(spec, device=self.device, workers=self.workers,
+            texels = math.prod(len(v) if isinstance(v, list) else SMALL_BLOCK for v in spec["axes"].values())
+            # a few texels: one thread (starting a pool costs more than it saves; same values)
+            workers = 1 if texels < SMALL_BLOCK else self.workers
+            self.tables[key] = api.tabulate(spec, device=self.device, workers=workers,
                                             **({"scheduler": self.scheduler} if self.scheduler is not None else {}))
         return self.tables[key]
 
