@@ -115,6 +115,10 @@ def _form(kind: str, q: dict) -> str:
     names = _axis_names_for(kind, q)
     if len(names) == 3:
         rows.append(_label("slice", _input("slice", q.get("slice"), f"index along {names[-1]} (middle)")))
+    elif len(names) > 3:  # the held axes: all but the first two, each at its middle unless given
+        held = names[2:]
+        rows.append(_label("slice", _input("slice", q.get("slice"), ",".join(f"{h}=i" for h in held) + " (middle)")))
+        rows.append(_label("slice_axis", _input("slice_axis", q.get("slice_axis"), ",".join(held))))
     rows.append("    </fieldset>")
     return "\n".join(rows)
 
@@ -243,8 +247,9 @@ async def _render_result(request: Request, kind: str, items: list[tuple[str, str
     extra = {k: v for k, v in items if k in PAGE_EXTRA}
     store = store_of(request)
     prep = store.prepare(spec)
-    check_preview(prep.axes, channel_names(kind, errors=True), extra.get("channel"), None, extra.get("slice"))
+    check_preview(prep.axes, channel_names(kind, errors=True), extra.get("channel"), extra.get("slice_axis"),
+                  extra.get("slice"))
     info = json.loads(await store.variant(prep, "info"))
     query = urlencode(spec_items)
-    preview_query = urlencode(spec_items + [(k, extra[k]) for k in ("channel", "slice") if k in extra])
+    preview_query = urlencode(spec_items + [(k, extra[k]) for k in ("channel", "slice", "slice_axis") if k in extra])
     return _result(kind, query, preview_query, info)

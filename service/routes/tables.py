@@ -43,8 +43,10 @@ TABLE_PATH_PARAM = {"name": "table", "in": "path", "required": True,
                     "schema": {"type": "string", "enum": list(TABLE_KINDS)}, "description": "the table kind"}
 PREVIEW_PARAMS = [
     query_param("channel", {"type": "string"}, "channel to show (default: the first value channel)"),
-    query_param("slice", {"type": "integer"}, "3-D tables: index along slice_axis (default: the middle)"),
-    query_param("slice_axis", {"type": "string"}, "3-D tables: the axis held fixed (default: the last axis)"),
+    query_param("slice", {"type": "integer"}, "tables of 3 or more axes: the held axes' indices, an integer "
+                "(one held axis) or axis=i pairs, e.g. alpha=3,anisotropy=2 (default: the middle of each)"),
+    query_param("slice_axis", {"type": "string"}, "tables of 3 or more axes: the held axes, comma-separated "
+                "(default: all but the first two)"),
 ]
 
 
@@ -169,7 +171,7 @@ async def get_info(table: str, request: Request) -> Response:
 
 @router.get(
     "/tables/{table}/preview.png",
-    summary="Heatmap PNG of one channel (3-D tables: one slice)",
+    summary="Heatmap PNG of one channel (3-D and 4-D tables: one slice, the middle by default)",
     responses={200: {"content": {"image/png": {}}}, **{k: v for k, v in _TABLE_RESPONSES.items() if k not in (200, 406)}},
     openapi_extra={"parameters": query_parameters(PREVIEW_PARAMS)},
 )

@@ -382,3 +382,71 @@ def test_sheen_shadowing_key_query_catalog_cache_meta(client):
     page = client.get(f"/?table=sheen_albedo&{q}&sheen_shadowing=exact")
     assert page.status_code == 200 and 'id="f-sheen_shadowing"' in page.text
     assert '<option value="exact" selected>' in page.text
+
+
+# ------------------------------------------------------------------ previews of 3-D and 4-D tables
+
+
+def _aniso_test_table():
+    axes = {"mu": np.array([0.1, 0.5, 1.0]), "phi_v": np.array([0.0, 0.7, 1.5]), "alpha": np.array([0.1, 0.3, 0.6, 0.9]),
+            "anisotropy": np.array([0.0, 0.5, 1.0])}
+    shape = tuple(len(v) for v in axes.values())
+    # every texel distinct: value = its flat index (so any wrong slice draws different colours)
+    E = np.arange(np.prod(shape), dtype=np.float64).reshape(shape) ** 1.5
+    return Table(axes, {"E": E, "E_err": 1e-7 * E}, {"spec": {"table": "albedo_aniso", "distribution": "ggx",
+                                                              "shadowing": "correlated"}})
+
+
+def test_preview_slice_4d_unit():
+    from service.errors import ServiceError
+    from service.preview import check_preview, draw_png, render_png
+
+    t = _aniso_test_table()
+    chans = ["E", "E_err"]
+    # default: the first two shown, the others at their middle
+    p = check_preview(t.axes, chans, None, None, None)
+    assert p.held == (("alpha", 2), ("anisotropy", 1)) and p.variant == "png-E-alpha2-anisotropy1"
+    assert check_preview(t.axes, chans, None, None, "alpha=0,anisotropy=-1").held == (("alpha", 0), ("anisotropy", 2))
+    assert check_preview(t.axes, chans, None, None, "anisotropy=0").held == (("alpha", 2), ("anisotropy", 0))
+    assert check_preview(t.axes, chans, None, "mu,anisotropy", "mu=2").held == (("mu", 2), ("anisotropy", 1))
+    for sa, idx, param in [(None, "3", "slice"), (None, "alpha=9", "slice"), (None, "k=1", "slice"),
+                           ("alpha", None, "slice_axis"), ("mu,mu", None, "slice_axis"),
+                           ("alpha,anisotropy", "mu=1", "slice"), (None, "alpha=1,alpha=2", "slice"),
+                           (None, "alpha=x", "slice")]:
+        with pytest.raises(ServiceError) as info:
+            check_preview(t.axes, chans, None, sa, idx)
+        assert info.value.status == 400 and info.value.param == param, (sa, idx, info.value)
+    # the image of a chosen slice is the drawing of that slice of the table (indexed here, apart)
+    for sa, idx, (shown, sl, caption) in [
+        (None, "alpha=1,anisotropy=2", (["mu", "phi_v"], np.s_[:, :, 1, 2],
+                                        "alpha = 0.3 (index 1 of 4), anisotropy = 1 (index 2 of 3)")),
+        ("mu,phi_v", "mu=0,phi_v=2", (["alpha", "anisotropy"], np.s_[0, 2, :, :],
+                                     "mu = 0.1 (index 0 of 3), phi_v = 1.5 (index 2 of 3)")),
+        (None, None, (["mu", "phi_v"], np.s_[:, :, 2, 1], "alpha = 0.6 (index 2 of 4), anisotropy = 0.5 (index 1 of 3)")),
+    ]:
+        p = check_preview(t.axes, chans, "E", sa, idx)
+        title = f"albedo_aniso E  (ggx, correlated)\n{caption}"
+        want = draw_png([t.axes[n] for n in shown], shown, t.channels["E"][sl], "E", title)
+        assert render_png(t, p) == want, (sa, idx)
+    others = {render_png(t, check_preview(t.axes, chans, "E", None, f"alpha={i},anisotropy={j}"))
+              for i in range(4) for j in range(3)}
+    assert len(others) == 12  # every slice draws differently (the old preview drew index 0 for all)
+
+
+def test_preview_slice_4d_http(client):
+    q = "mu=0.3,1&phi_v=0,1.5&alpha=0.2,0.5&anisotropy=0,0.5,1"
+    t = Table.from_npz_bytes(client.get(f"/tables/albedo_aniso?{q}&format=npz").content)
+    from service.preview import draw_png
+
+    for idx, sl, caption in [("alpha=0,anisotropy=2", np.s_[:, :, 0, 2], "alpha = 0.2 (index 0 of 2), anisotropy = 1 (index 2 of 3)"),
+                             (None, np.s_[:, :, 1, 1], "alpha = 0.5 (index 1 of 2), anisotropy = 0.5 (index 1 of 3)")]:
+        r = client.get(f"/tables/albedo_aniso/preview.png?{q}" + (f"&slice={idx}" if idx else ""))
+        assert r.status_code == 200 and r.headers["content-type"] == "image/png"
+        want = draw_png([t.axes["mu"], t.axes["phi_v"]], ["mu", "phi_v"], np.asarray(t.channels["E"], dtype=np.float64)[sl],
+                        "E", f"albedo_aniso E  (ggx, correlated)\n{caption}")
+        assert r.content == want
+    err(client.get(f"/tables/albedo_aniso/preview.png?{q}&slice=1"), 400, "slice")
+    err(client.get(f"/tables/albedo_aniso/preview.png?{q}&slice=alpha=5"), 400, "slice")
+    err(client.get(f"/tables/albedo_aniso/preview.png?{q}&slice_axis=alpha"), 400, "slice_axis")
+    page = client.get(f"/?table=albedo_aniso&{q}&slice=alpha%3D0,anisotropy%3D2")
+    assert page.status_code == 200 and "slice=alpha%3D0%2Canisotropy%3D2" in page.text
