@@ -10,6 +10,7 @@ error with it.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,7 +39,7 @@ class AxisPlan:
         """The axis values of the table's texels (float64)."""
         if self.mode == "discrete":
             return np.asarray(self.values, dtype=np.float64)
-        return resolve_axis(self.name, dict(self.spec(), clamp=None))
+        return _nodes(self.name, self.size, self.spacing, tuple(self.range)).copy()
 
     def spec(self):
         """The axis as a table spec gives it."""
@@ -76,6 +77,13 @@ class AxisPlan:
             "size": self.size,
             "coordinate": f"t = ({g} - {glo}) / ({ghi} - {glo}) * {self.size - 1}  (texel index, endpoints nodes)",
         }
+
+
+@functools.lru_cache(maxsize=4096)
+def _nodes(name: str, size: int, spacing: str, rng: tuple[float, float]) -> np.ndarray:
+    """Endpoint nodes of an interpolated axis (memoized: the planner asks for the same ones often)."""
+    spec = {"size": size, "spacing": spacing, "nodes": "endpoints", "range": list(rng), "clamp": None}
+    return resolve_axis(name, spec)
 
 
 def _texel(ax: AxisPlan, x: np.ndarray, interpolation: str, down: bool = False):

@@ -58,6 +58,65 @@ def cover(points: list[tuple[int, ...]], dims: int) -> list[tuple[tuple[int, ...
     return out
 
 
+#: Node ids per axis are packed into one int64 key per texel: BITS bits per axis (at most
+#: 2^BITS distinct nodes per axis in a run; 4 axes x 15 bits < 63).
+BITS = 15
+
+
+class _Family:
+    """The texels of one family: per axis, node key -> id (in order of first use); the texels'
+    packed ids, sorted, and their channel rows."""
+
+    def __init__(self, dims: int, nchan: int):
+        self.node_keys = [np.zeros(0) for _ in range(dims)]  # per axis: node keys, sorted
+        self.node_sorted_ids = [np.zeros(0, dtype=np.int64) for _ in range(dims)]  # their ids
+        self.node_values: list[list[float]] = [[] for _ in range(dims)]  # per axis: id -> value
+        self.keys = np.zeros(0, dtype=np.int64)  # packed texel keys, sorted
+        self.rows = np.zeros((0, nchan))  # rows[i]: the texel of keys[i]
+
+    def ids(self, a: int, values: np.ndarray) -> np.ndarray:
+        """The node ids of ``values`` on axis ``a`` (new nodes get the next ids)."""
+        k = np.round(values, KEY_DIGITS)
+        keys, ids = self.node_keys[a], self.node_sorted_ids[a]
+        pos = np.minimum(np.searchsorted(keys, k), max(len(keys) - 1, 0))
+        new = ~(keys[pos] == k) if len(keys) else np.ones(k.shape, dtype=bool)
+        if new.any():
+            fresh, first = np.unique(k[new], return_index=True)
+            if len(self.node_values[a]) + len(fresh) > 1 << BITS:  # pragma: no cover - beyond the caps
+                raise ValueError("too many distinct nodes on one axis for the texel store")
+            start = len(self.node_values[a])
+            self.node_values[a] += [float(x) for x in values[new][first]]
+            keys = np.concatenate([keys, fresh])
+            ids = np.concatenate([ids, np.arange(start, start + len(fresh), dtype=np.int64)])
+            order = np.argsort(keys, kind="stable")
+            self.node_keys[a], self.node_sorted_ids[a] = keys[order], ids[order]
+            keys, ids = self.node_keys[a], self.node_sorted_ids[a]
+            pos = np.searchsorted(keys, k)
+        return ids[pos]
+
+    def packed(self, ids: list[np.ndarray]) -> np.ndarray:
+        """The packed keys of the grid of per-axis ids (shape: the grid's)."""
+        key = np.zeros(tuple(len(i) for i in ids), dtype=np.int64)
+        for a, i in enumerate(ids):
+            shape = [1] * len(ids)
+            shape[a] = -1
+            key = key + (i.reshape(shape) << (BITS * a))
+        return key
+
+    def find(self, key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(position in ``rows``, found) of packed keys."""
+        pos = np.searchsorted(self.keys, key)
+        pos = np.minimum(pos, max(len(self.keys) - 1, 0))
+        found = (self.keys[pos] == key) if len(self.keys) else np.zeros(key.shape, dtype=bool)
+        return pos, found
+
+    def add(self, key: np.ndarray, rows: np.ndarray) -> None:
+        keys = np.concatenate([self.keys, key.ravel()])
+        data = np.concatenate([self.rows, rows.reshape(-1, rows.shape[-1])])
+        order = np.argsort(keys, kind="stable")
+        self.keys, self.rows = keys[order], data[order]
+
+
 class TexelStore:
     """Texels of one planning run, by table family and coordinates.
 
@@ -70,63 +129,68 @@ class TexelStore:
     def __init__(self, compute: Callable[[dict], object], before: Callable[[dict], None] | None = None):
         self.compute = compute
         self.before = before
-        self._families: dict[str, dict] = {}
+        self._families: dict[str, _Family] = {}
         self.calls = 0  # tabulations run
         self.texels = 0  # texels computed
         self.requested = 0  # texels asked for (over all grids, repeats counted)
-
-    def family(self, base: dict, names: list[str]) -> str:
-        return json.dumps([base, names], sort_keys=True)
-
-    def grid(self, base: dict, axes: list[tuple[str, np.ndarray]]) -> dict[str, np.ndarray]:
-        """Values and ``_err`` channels of the family ``base`` (a spec without axes) on the grid
-        of ``axes`` ((name, node values) in table order), computing only the missing texels."""
-        names = [n for n, _ in axes]
-        self.prefetch(base, names, [[v for _, v in axes]])
-        nodes = [np.atleast_1d(np.asarray(v, dtype=np.float64)) for _, v in axes]
-        fam = self._families[self.family(base, names)]
-        keys = [[_key(x) for x in v] for v in nodes]
-        shape = tuple(len(v) for v in nodes)
-        self.requested += int(np.prod(shape))
-        flat = [fam[tuple(k[i] for k, i in zip(keys, idx))] for idx in np.ndindex(*shape)]
-        chans = self._channels(base)
-        data = np.asarray(flat, dtype=np.float64).reshape(shape + (len(chans),))
-        return {c: data[..., i] for i, c in enumerate(chans)}
 
     @staticmethod
     def _channels(base: dict) -> list[str]:
         chans = list(channel_names(base["table"]))
         return chans + [c + "_err" for c in chans]
 
+    def _family(self, base: dict, names: list[str]) -> _Family:
+        key = json.dumps([base, names], sort_keys=True)
+        if key not in self._families:
+            self._families[key] = _Family(len(names), len(self._channels(base)))
+        return self._families[key]
+
+    def grid(self, base: dict, axes: list[tuple[str, np.ndarray]]) -> dict[str, np.ndarray]:
+        """Values and ``_err`` channels of the family ``base`` (a spec without axes) on the grid
+        of ``axes`` ((name, node values) in table order), computing only the missing texels."""
+        names = [n for n, _ in axes]
+        lists = [np.atleast_1d(np.asarray(v, dtype=np.float64)) for _, v in axes]
+        self.prefetch(base, names, [lists])
+        fam = self._family(base, names)
+        key = fam.packed([fam.ids(a, v) for a, v in enumerate(lists)])
+        self.requested += key.size
+        pos, found = fam.find(key)
+        assert found.all()  # prefetch computed every missing texel
+        data = fam.rows[pos]
+        return {c: data[..., i] for i, c in enumerate(self._channels(base))}
+
     def prefetch(self, base: dict, names: list[str], grids: list[list[np.ndarray]]) -> None:
         """Compute the texels of several grids (each a list of node values per axis) that are
         not known yet, together: their union covered by as few tensor blocks as it takes."""
-        fam_key = self.family(base, names)
-        fam = self._families.setdefault(fam_key, {})
-        axis_nodes: list[dict[float, float]] = [{} for _ in names]  # key -> value, per axis
-        missing = set()
+        fam = self._family(base, names)
+        missing = []
         for lists in grids:
-            nodes = [np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in lists]
-            keys = [[_key(x) for x in v] for v in nodes]
-            for a, (k, v) in enumerate(zip(keys, nodes)):
-                for kk, vv in zip(k, v):
-                    axis_nodes[a].setdefault(kk, float(vv))
-            for idx in np.ndindex(*(len(v) for v in nodes)):
-                point = tuple(k[i] for k, i in zip(keys, idx))
-                if point not in fam:
-                    missing.add(point)
+            ids = [fam.ids(a, np.atleast_1d(np.asarray(v, dtype=np.float64))) for a, v in enumerate(lists)]
+            _, found = fam.find(fam.packed(ids))
+            where = np.nonzero(~found)
+            if where[0].size:
+                missing.append(np.stack([ids[a][w] for a, w in enumerate(where)], axis=-1))
         if not missing:
             return
-        order = [sorted(axis_nodes[a]) for a in range(len(names))]
-        pos = [{k: i for i, k in enumerate(o)} for o in order]
+        points = np.unique(np.concatenate(missing), axis=0)  # (n, dims) node ids
+        # blocks over node ids, each axis's ids ordered by value (a spec's explicit axis values)
+        order, ranks = [], []
+        for a in range(len(names)):
+            used = np.unique(points[:, a])
+            used = used[np.argsort([fam.node_values[a][i] for i in used], kind="stable")]
+            lookup = np.empty(int(used.max()) + 1, dtype=np.int64)
+            lookup[used] = np.arange(len(used))
+            order.append(used)
+            ranks.append(lookup[points[:, a]])
+        ranked = list(map(tuple, np.stack(ranks, axis=-1).tolist()))
         chans = self._channels(base)
-        for block in cover([tuple(pos[a][p[a]] for a in range(len(names))) for p in missing], len(names)):
-            spec = dict(base, axes={n: [axis_nodes[a][order[a][i]] for i in block[a]] for a, n in enumerate(names)})
+        for block in cover(ranked, len(names)):
+            ids = [order[a][list(block[a])] for a in range(len(names))]
+            spec = dict(base, axes={n: [fam.node_values[a][i] for i in ids[a]] for a, n in enumerate(names)})
             if self.before is not None:
                 self.before(spec)
             table = self.compute(spec)
             self.calls += 1
             data = np.stack([np.asarray(table.channels[c], dtype=np.float64) for c in chans], axis=-1)
             self.texels += int(np.prod(data.shape[:-1]))
-            for local in np.ndindex(*data.shape[:-1]):
-                fam[tuple(order[a][block[a][i]] for a, i in enumerate(local))] = data[local]
+            fam.add(fam.packed(ids), data)
