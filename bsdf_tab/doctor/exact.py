@@ -22,11 +22,17 @@ import numpy as np
 from ..api import tabulate
 from ..io import write_bytes
 from ..version import __version__
+from .schlick import dfg_quadrature
 
-__all__ = ["CACHE_ENV", "GRID", "MODELS", "Candidate", "cache_dir", "candidate", "cubic_basis", "exact_at"]
+__all__ = ["CACHE_ENV", "FIT_MODELS", "GRID", "MODELS", "Candidate", "cache_dir", "candidate", "cubic_basis",
+           "exact_at"]
 
-#: (distribution, shadowing) pairs the doctor fits.
+#: (distribution, shadowing) pairs bsdf-tab's integrators bake (1-D averages use these).
 MODELS = (("ggx", "correlated"), ("ggx", "separable"), ("beckmann", "correlated"), ("beckmann", "separable"))
+#: the pairs 2-D LUTs are fitted against: and GGX with Schlick-GGX shadowing (k = alpha / 2), the
+#: approximation of Karis' UE4 notes, learnopengl.com and Godot, by the doctor's own quadrature
+#: (:mod:`.schlick`)
+FIT_MODELS = MODELS + (("ggx", "schlick"),)
 GRID = 33
 TOLERANCE = 1e-6
 CACHE_ENV = "BSDF_TAB_DOCTOR_CACHE"
@@ -95,6 +101,8 @@ class Candidate:
 
 def _bake(distribution: str, shadowing: str) -> tuple[np.ndarray, np.ndarray]:
     g = np.linspace(0.0, 1.0, GRID)
+    if shadowing == "schlick":
+        return dfg_quadrature(g**2, g**2)
     nodes = [float(x) for x in g**2]
     t = tabulate({"table": "dfg", "distribution": distribution, "shadowing": shadowing, "tolerance": TOLERANCE,
                   "axes": {"mu": nodes, "alpha": nodes}})
@@ -132,6 +140,11 @@ def exact_at(distribution: str, shadowing: str, mu, alpha) -> dict[str, np.ndarr
     mu, alpha = np.asarray(mu, dtype=np.float64), np.asarray(alpha, dtype=np.float64)
     um, im = np.unique(np.clip(mu, 0.0, 1.0), return_inverse=True)
     ua, ia = np.unique(np.clip(alpha, 0.0, 4.0), return_inverse=True)
+    if shadowing == "schlick":
+        A, B = dfg_quadrature(um, ua, n_u=128, n_phi=64)
+        out = {"A": A[np.ix_(im, ia)], "B": B[np.ix_(im, ia)]}
+        out["E"] = out["A"] + out["B"]
+        return out
     t = tabulate({"table": "dfg", "distribution": distribution, "shadowing": shadowing, "tolerance": TOLERANCE,
                   "axes": {"mu": [float(x) for x in um], "alpha": [float(x) for x in ua]}})
     out = {c: np.asarray(t.channels[c], dtype=np.float64)[np.ix_(im, ia)] for c in ("A", "B")}

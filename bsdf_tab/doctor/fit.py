@@ -8,8 +8,8 @@ A hypothesis says, for a 2-D LUT of shape (rows, columns[, channels]):
 - the roughness slot: ``roughness`` (alpha = x^2), ``alpha`` (alpha = x), or roughness with
   ``sqrt`` spacing (x = sqrt(roughness), alpha = x^4);
 - the nodes along each axis: ``endpoints`` x_i = i/(n-1), ``centers`` (i + 1/2)/n, ``left``
-  i/n, ``right`` (i + 1)/n, or an endpoints grid shifted by +-1/2 or +-1 texel (clamped to
-  [0, 1]); and whether the axis runs reversed (x_{n-1-i});
+  i/n, ``right`` (i + 1)/n, an endpoints grid shifted by +-1/2 or +-1 texel, or a centres grid
+  shifted by +-1 texel (clamped to [0, 1]); and whether the axis runs reversed (x_{n-1-i});
 - the model (GGX / Beckmann, separable / correlated), the encoding of the values (``linear``;
   ``srgb``: the file holds sRGB-encoded values; ``srgb-decoded``: the values went through an
   sRGB decode), and for each file channel its meaning: ``E`` (albedo, F = 1), ``1-E`` (energy
@@ -27,10 +27,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .exact import MODELS, candidate
+from .exact import FIT_MODELS, candidate
 from .readers import srgb_decode, srgb_encode
 
-__all__ = ["AxisHyp", "Hypothesis", "MEANINGS", "MU_SPACINGS", "NODE_TYPES", "ROUGH_MAPS", "encodings", "even_indices",
+__all__ = ["AxisHyp", "Hypothesis", "MEANINGS", "MU_SPACINGS", "NODE_FORMULA", "NODE_TYPES", "ROUGH_MAPS", "encodings", "even_indices",
            "search"]
 
 MU_SPACINGS = {
@@ -60,9 +60,15 @@ NODE_TYPES = {
     "endpoints-0.5": (lambda n: np.clip((np.arange(n) - 0.5) / max(n - 1, 1), 0, 1), -0.5),
     "endpoints+1": (lambda n: np.clip((np.arange(n) + 1.0) / max(n - 1, 1), 0, 1), 1.0),
     "endpoints-1": (lambda n: np.clip((np.arange(n) - 1.0) / max(n - 1, 1), 0, 1), -1.0),
+    "centers+1": (lambda n: np.clip((np.arange(n) + 1.5) / n, 0, 1), 1.0),
+    "centers-1": (lambda n: np.clip((np.arange(n) - 0.5) / n, 0, 1), -1.0),
 }
+#: where node i of a shifted grid sits (the findings' words)
+NODE_FORMULA = {"endpoints+0.5": "(i + 1/2) / (n - 1)", "endpoints-0.5": "(i - 1/2) / (n - 1)",
+                "endpoints+1": "(i + 1) / (n - 1)", "endpoints-1": "(i - 1) / (n - 1)",
+                "centers+1": "(i + 3/2) / n (the centre of texel i + 1)", "centers-1": "(i - 1/2) / n (the centre of texel i - 1)"}
 COARSE_NODES = ("endpoints", "centers")
-COARSE_MODELS = (("ggx", "correlated"),)
+COARSE_MODELS = (("ggx", "correlated"), ("ggx", "schlick"))  # the two far apart: both pick geometries
 MEANINGS = ("E", "1-E", "A", "B")
 ENCODINGS = ("linear", "srgb", "srgb-decoded")
 
@@ -257,6 +263,6 @@ def search(data: np.ndarray, active: list[int], keep: int = 3, screen: int = 32)
     for g in geometries:
         base = next(h for h in coarse if h.geometry() == g)
         fine += [Hypothesis(replace(base.rows, nodes=rn), replace(base.cols, nodes=cn), dist, shadow)
-                 for rn in NODE_TYPES for cn in NODE_TYPES for dist, shadow in MODELS]
+                 for rn in NODE_TYPES for cn in NODE_TYPES for dist, shadow in FIT_MODELS]
     encs = {e: encoded[e] for e in dict.fromkeys([coarse[0].encoding, "linear"])}  # the coarse stage decides it
     return scored(fine, encs)

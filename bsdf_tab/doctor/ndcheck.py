@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fit import NODE_TYPES, even_indices
+from .fit import NODE_FORMULA, NODE_TYPES, even_indices
 from .glass import AVG_RULE, Z_MAX, albedo_avg_exact_at, glass_avg_exact_at, glass_exact_at
 from .nd import KINDS_ND, NDHypothesis, predict, search_nd, to_file_order
 from .readers import LutImage
@@ -336,7 +336,7 @@ def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: di
         if off:
             size = "half a texel" if abs(off) == 0.5 else "one texel"
             f.append(f"grid shifted by {size} along the {lab} ({a.label}): node i sits at "
-                     f"(i {'+' if off > 0 else '-'} {abs(off):g}) / (n - 1), the ends clamped")
+                     f"{NODE_FORMULA[a.nodes]}, the ends clamped")
     if claimed and len(claimed) == len(best.axes):
         found = [a.label for a in best.axes]
         slots = [_SLOT.get(n.lower(), n.lower()) for n in claimed]
