@@ -12,7 +12,7 @@ from .readers import LutImage
 __all__ = ["BITS", "MU_CLAMPS", "high_frequency", "quantization", "storage_rms"]
 
 #: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
-MU_CLAMPS = {1e-4: "1e-4 (Cycles' clamp)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
+MU_CLAMPS = {1e-4: "1e-4 (the clamp of Cycles and EEVEE)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
              1e-3: "1e-3", 1e-2: "1e-2"}
 BITS = {"unorm8": 8, "unorm10": 10, "unorm16": 16}
 
