@@ -33,7 +33,10 @@ anchors' tables):
   ``unreal-envbrdf`` and ``bevy-dfg``;
 - Godot's ``integrate_dfg.glsl``, run here in float64 NumPy as the shader writes it (1024
   Hammersley samples, GGX NDF sampling, Schlick-GGX G with k = roughness^2 / 2, row y at
-  roughness (128 - y + 0.5) / 128, RGBA16F rounding), against ``godot-dfg``.
+  roughness (128 - y + 0.5) / 128, RGBA16F rounding), against ``godot-dfg``;
+- the glTF Sample Viewer's ``LUT()`` of ``ibl_filtering.frag`` (Hammersley NDF sampling,
+  ``V_SmithGGXCorrelated``; ``--gltf-samples``, default 512 and 1024) against ``gltf-ggx-lut`` on
+  every 16th texel (its shipped ``lut_ggx.png`` is binary and not read here).
 """
 
 from __future__ import annotations
@@ -292,6 +295,43 @@ def compare_godot(device=None, workers=None, reuse=False, samples=1024) -> dict:
     return out
 
 
+def gltf_lut(nov: np.ndarray, rough: np.ndarray, samples: int) -> np.ndarray:
+    """The glTF Sample Viewer's ``LUT(NdotV, roughness)`` (ibl_filtering.frag) in float64: (A, B) on
+    rough x nov; Hammersley u = i/N -> cos theta_h, v = radical inverse -> phi; V_SmithGGXCorrelated."""
+    i = np.arange(samples)
+    u, v = i / samples, _radical_inverse(i)
+    out = np.zeros((len(rough), len(nov), 2))
+    vx, vz = np.sqrt(1.0 - nov**2)[:, None], nov[:, None]
+    for y, r in enumerate(rough):
+        a = r * r
+        ct = np.sqrt((1.0 - u) / (1.0 + (a * a - 1.0) * u))  # denominator >= a^2 > 0
+        st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))
+        hx, hz = st * np.cos(2.0 * np.pi * v), ct  # TBN = identity for N = z
+        vdh = vx * hx[None, :] + vz * hz[None, :]
+        lz = 2.0 * vdh * hz[None, :] - vz
+        ndl, ndh, vdh_s = np.clip(lz, 0, 1), np.clip(hz, 0, 1)[None, :], np.clip(vdh, 0, 1)
+        a2 = r**4
+        ggxv = ndl * np.sqrt(vz * vz * (1 - a2) + a2)
+        ggxl = vz * np.sqrt(ndl * ndl * (1 - a2) + a2)
+        vis = 0.5 / np.maximum(ggxv + ggxl, 1e-30)  # guard: both vanish only where ndl = 0 (masked)
+        vpdf = np.where(ndl > 0, vis * vdh_s * ndl / np.maximum(ndh, 1e-30), 0.0)
+        fc = (1.0 - vdh_s) ** 5
+        out[y, :, 0] = 4.0 * ((1.0 - fc) * vpdf).mean(axis=1)
+        out[y, :, 1] = 4.0 * (fc * vpdf).mean(axis=1)
+    return out
+
+
+def compare_gltf(samples: int, device=None, workers=None) -> dict:
+    idx = list(range(8, 1024, 16))  # every 16th texel of the 1024 x 1024 LUT
+    t = build_preset("gltf-ggx-lut", select={"roughness": idx, "mu": idx}, device=device, workers=workers)
+    theirs = gltf_lut(np.asarray(t.axes["mu"]), np.asarray(t.axes["roughness"]), samples)
+    out = {"engine": "glTF Sample Viewer", "preset": f"gltf-ggx-lut (every 16th texel, {samples} samples)",
+           "source": "ibl_filtering.frag LUT() run in NumPy"}
+    for k, ch in enumerate(("A", "B")):
+        out[ch] = _stats(np.asarray(t.channels[ch]), theirs[..., k], dict(t.axes))
+    return out
+
+
 def _preset_table(name: str, device, workers, reuse: bool) -> Table:
     cached = OUT / "presets" / f"{name}.npz"
     if reuse and cached.exists():
@@ -320,6 +360,8 @@ def run_engines(args, anchors: Path) -> tuple[list, list]:
     for name in ("unreal-envbrdf", "bevy-dfg"):
         rows.append(compare_env_brdf_approx(name, args.device, args.workers, args.reuse))
     rows.append(compare_godot(args.device, args.workers, args.reuse, args.godot_samples))
+    for n in args.gltf_samples:
+        rows.append(compare_gltf(n, args.device, args.workers))
     for r in rows:
         chans = [k for k in r if isinstance(r[k], dict) and "max_abs_diff" in r[k]]
         for ch in chans:
@@ -344,6 +386,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     parser.add_argument("--eevee-first-row", type=int, default=0, help="the row index of the first row in --eevee-lut")
     parser.add_argument("--materialx", metavar="PATH", help="mx_ggx_dir_albedo_analytic.json (default: the anchors')")
     parser.add_argument("--godot-samples", type=int, default=1024)
+    parser.add_argument("--gltf-samples", type=int, nargs="*", default=[512, 1024],
+                        help="sample counts of the glTF Sample Viewer's LUT pass to run")
     args = parser.parse_args(argv)
     if args.engines_only:
         args.engines = True
