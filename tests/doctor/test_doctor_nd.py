@@ -36,9 +36,7 @@ def _has(r: dict, text: str) -> bool:
 
 
 def _check(data: np.ndarray) -> dict:
-    data = np.asarray(data, dtype=np.float64)
-    if data.ndim in (1, 3):
-        data = data[..., None]
+    data = np.asarray(data, dtype=np.float64)[..., None]  # one channel
     return check_image(LutImage(data, "npy", [str(i) for i in range(data.shape[-1])])).to_dict()
 
 
@@ -228,3 +226,33 @@ def test_our_eavg_alpha_axis_and_shift():
 def test_our_eavg_beckmann_separable():
     r = _check(albedo_avg((np.arange(16) / 15) ** 2, "beckmann", "separable"))
     assert (r["distribution"], r["shadowing"]) == ("beckmann", "separable")
+
+
+def test_our_glass_through_the_cli_json_and_heatmap(ours3, tmp_path, capsys):
+    import json
+
+    from bsdf_tab.cli import main as cli_main
+
+    path = tmp_path / "glass.npy"
+    np.save(path, ours3[::-1])  # the ior slices reversed
+    heat = tmp_path / "heat.png"
+    assert cli_main(["check", str(path), "--json", "--heatmap", str(heat)]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["table"] == "dielectric" and r["axes"][0]["reversed"] is True and _has(r, "Z flipped")
+    assert heat.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_our_glass_average_transposed_and_flipped():
+    """R_avg + T_avg [ior, roughness] (Cycles-like z axis, 6 x 6), stored as [roughness, ior] with
+    the roughness running high to low: the kind, the side, the order and the flip are named."""
+    z = np.clip(np.arange(6) / 5, 1e-4, 0.99)
+    ior = (1 + z**2) / (1 - z**2)
+    r = np.arange(6) / 5
+    t = bsdf_tab.tabulate({"table": "dielectric_avg", "shadowing": "correlated", "tolerance": 1e-6,
+                           "axes": {"roughness": [float(x) for x in r], "eta": [float(x) for x in ior]}})
+    avg = np.asarray(t.channels["R_avg"]) + np.asarray(t.channels["T_avg"])  # [roughness, eta]
+    rep = _check(avg[::-1])
+    assert (rep["table"], rep["quantity"], rep["shadowing"]) == ("dielectric_avg", "R+T", "correlated")
+    assert rep["eta"].startswith("eta > 1")
+    assert _axes(rep) == [("roughness", "linear", "endpoints", True), ("ior", "z", "endpoints", False)]
+    assert _has(rep, "Y flipped") and rep["max_error"] < 2e-4
