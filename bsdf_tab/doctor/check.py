@@ -256,7 +256,8 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
             f.append(f"Monte Carlo noise: texel-to-texel residual rms {rms:.2g}, even over the table")
 
 
-def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None, heatmap=None) -> Report:
+def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None, heatmap=None,
+              array_name: str | None = None):
     """Identify the LUT file ``path``: what it is, how well it matches, and what is wrong with it.
 
     Parameters
@@ -268,29 +269,33 @@ def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None
     array_values : str
         How an array file's numbers are read: ``float``, ``half``, ``unorm8``, ``unorm16``.
     expect_axes : list of str, optional
-        The axis names the user believes the file has, rows first (``["mu", "roughness"]``);
-        a bsdf-tab file's own axes are used when not given.
+        The axis names the user believes the file has, its first axis first (``["mu", "roughness"]``,
+        ``["ior", "mu", "roughness"]``); a bsdf-tab file's own axes are used when not given.
     heatmap : str or os.PathLike, optional
         Write a PNG heatmap of |file - best match| there.
+    array_name : str, optional
+        In an array file that initializes several arrays, the one to read (``brdf_ggx``).
 
     Returns
     -------
-    Report
-        ``report.to_dict()`` is the JSON report; ``report.text()`` the human one.
+    Report or NDReport
+        ``report.to_dict()`` is the JSON report; ``report.text()`` the human one (an
+        :class:`~bsdf_tab.doctor.ndcheck.NDReport` for 1-D averages and 3-D / averaged glass).
 
     Raises
     ------
     SpecError
-        An unreadable file (``param`` ``lut``), a bad ``shape`` or ``array_values``.
+        An unreadable file (``param`` ``lut``), a bad ``shape``, ``array_values``, ``array_name``
+        or ``axes``.
     """
     from pathlib import Path
 
-    img = read_lut(path, shape=shape, array_values=array_values)
+    img = read_lut(path, shape=shape, array_values=array_values, array_name=array_name)
     return check_image(img, expect_axes=expect_axes, heatmap=heatmap, name=Path(path).name)
 
 
 def check_lut_bytes(data: bytes, name: str = "lut", *, shape=None, array_values: str = "float",
-                    expect_axes=None, heatmap=None) -> Report:
+                    expect_axes=None, heatmap=None, array_name: str | None = None):
     """:func:`check_lut` on a file's bytes (``name`` for formats known by their name only)."""
-    img = read_lut_bytes(data, name, shape=shape, array_values=array_values)
+    img = read_lut_bytes(data, name, shape=shape, array_values=array_values, array_name=array_name)
     return check_image(img, expect_axes=expect_axes, heatmap=heatmap, name=name)

@@ -358,7 +358,7 @@ def read_exr(data: bytes) -> LutImage:
 _NUMBER = re.compile(r"(?<![A-Za-z_0-9.])[-+]?(?:0[xX][0-9a-fA-F]+|(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?)[fFlLuU]*")
 
 
-def read_array_text(text: str, shape, values: str = "float") -> LutImage:
+def read_array_text(text: str, shape, values: str = "float", array_name: str | None = None) -> LutImage:
     """The numbers of a C / C++ / JavaScript array initializer, reshaped to ``shape``.
 
     Comments are dropped and only the numbers after the first ``=`` (C) or ``(`` / ``[`` of the
@@ -372,6 +372,12 @@ def read_array_text(text: str, shape, values: str = "float") -> LutImage:
         raise LutReadError("an array file needs its shape (for example 32,32 or 16,16,2)", "shape")
     text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
     text = re.sub(r"//[^\n]*", " ", text)
+    if array_name:  # one array of a file that declares several (Blender's eevee_lut.cc): up to its ';'
+        m = re.search(rf"(?<![A-Za-z0-9_]){re.escape(array_name)}\s*(?:\[[^\]]*\]\s*)*=", text)
+        if m is None:
+            raise LutReadError(f"no array named {array_name!r} is initialized in the file", "array_name")
+        end = text.find(";", m.end())
+        text = text[m.start():end if end >= 0 else len(text)]
     eq = text.find("=")
     if eq < 0:
         m = re.search(r"[(\[{]", text)
@@ -397,7 +403,8 @@ def read_array_text(text: str, shape, values: str = "float") -> LutImage:
     return _as_image(nums.reshape(tuple(shape)), "array", storage=storage)
 
 
-def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str = "float") -> LutImage:
+def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str = "float",
+                   array_name: str | None = None) -> LutImage:
     """Read a LUT from its bytes; the format from the magic number, else from the name (arrays).
 
     Parameters
@@ -447,10 +454,10 @@ def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str
     except UnicodeDecodeError:
         raise LutReadError(f"{name}: not a LUT format the doctor reads (EXR, KTX2, DDS, PNG, .npy, "
                            "or a C/C++/JS array file with --shape)") from None
-    return read_array_text(text, shape, array_values)
+    return read_array_text(text, shape, array_values, array_name)
 
 
-def read_lut(path, shape=None, array_values: str = "float") -> LutImage:
+def read_lut(path, shape=None, array_values: str = "float", array_name: str | None = None) -> LutImage:
     """Read the LUT file ``path`` (see :func:`read_lut_bytes`)."""
     p = Path(path)
-    return read_lut_bytes(p.read_bytes(), p.name, shape=shape, array_values=array_values)
+    return read_lut_bytes(p.read_bytes(), p.name, shape=shape, array_values=array_values, array_name=array_name)

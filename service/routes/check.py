@@ -37,7 +37,7 @@ router = APIRouter(tags=["check"])
 
 #: The largest LUT file accepted (a 512 x 512 RGBA float32 texture and then some).
 MAX_LUT_BYTES = 8 * 1024 * 1024
-PARAMS = ("name", "shape", "array_values", "axes", "heatmap")
+PARAMS = ("name", "shape", "array_values", "array_name", "axes", "heatmap")
 _ERR = {"content": {"application/json": {}}}
 
 
@@ -85,12 +85,14 @@ async def _read_body(request: Request) -> bytes:
     return data
 
 
-def check_payload(data: bytes, name: str, shape, array_values: str, axes, heatmap: bool) -> dict:
+def check_payload(data: bytes, name: str, shape, array_values: str, axes, heatmap: bool,
+                  array_name: str | None = None) -> dict:
     """The report of the LUT ``data`` as JSON, with the heatmap PNG (base64) if asked."""
     with tempfile.TemporaryDirectory() as folder:
         png = Path(folder) / "heatmap.png" if heatmap else None
         try:
-            report = check_lut_bytes(data, name, shape=shape, array_values=array_values, expect_axes=axes, heatmap=png)
+            report = check_lut_bytes(data, name, shape=shape, array_values=array_values, expect_axes=axes, heatmap=png,
+                                     array_name=array_name)
         except SpecError as exc:
             param = "body" if exc.param in (None, "lut") else exc.param
             raise ServiceError(400, "invalid_lut" if param == "body" else "invalid_parameter", exc.message,
@@ -116,6 +118,8 @@ def check_payload(data: bytes, name: str, shape, array_values: str, axes, heatma
             {"name": "array_values", "in": "query", "required": False,
              "schema": {"type": "string", "enum": list(ARRAY_VALUES), "default": "float"},
              "description": "how an array file's numbers are read"},
+            {"name": "array_name", "in": "query", "required": False, "schema": {"type": "string"},
+             "description": "in an array file that initializes several arrays, the one to read (brdf_ggx)"},
             {"name": "axes", "in": "query", "required": False, "schema": {"type": "string"},
              "description": "the axes the file should have, its first axis first (mu,roughness; ior,mu,roughness)"},
             {"name": "heatmap", "in": "query", "required": False, "schema": {"type": "boolean", "default": False},
@@ -139,6 +143,9 @@ async def post_check(request: Request) -> JSONResponse:
     data = await _read_body(request)
     store = store_of(request)
     loop = asyncio.get_running_loop()
+    array_name = extra.get("array_name") or None
+    if array_name is not None and not array_name.replace("_", "a").isalnum():
+        raise _bad("array_name", f"must be an identifier (letters, digits, _), got {array_name[:40]!r}")
     payload = await loop.run_in_executor(store.compute_pool, check_payload, data, extra.get("name", "lut"), shape,
-                                         array_values, axes, heatmap_text in ("1", "true"))
+                                         array_values, axes, heatmap_text in ("1", "true"), array_name)
     return JSONResponse(payload, headers={"Cache-Control": "no-store"})

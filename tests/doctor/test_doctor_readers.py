@@ -104,3 +104,18 @@ def test_c_and_js_arrays(ours):
         read_lut_bytes(c, "dfg.h", shape=(64, 64, 2))
     with pytest.raises(SpecError, match="^lut: "):
         read_lut_bytes(b"\x00\x01\x02garbage\xff", "x.bin")
+
+
+def test_one_array_of_a_file_with_several(ours):
+    """A source file that initializes several arrays (as Blender's eevee_lut.cc): ``array_name`` picks one."""
+    values = image_of(ours).astype(np.float32)
+    body = ", ".join(f"{v:.9g}f" for v in values.ravel())
+    src = ("const float first[4] = {1.0f, 2.0f, 3.0f, 4.0f};\n"
+           f"const float dfg_lut[{ours.shape[0]}][{ours.shape[1]}][2] = {{{body}}};\n"
+           "const float last[2] = {5.0f, 6.0f};\n").encode()
+    img = read_lut_bytes(src, "luts.cc", shape=(*ours.shape, 2), array_name="dfg_lut")
+    np.testing.assert_array_equal(img.data.astype(np.float32), values)
+    first = read_lut_bytes(src, "luts.cc", shape=(4,), array_name="first")
+    np.testing.assert_array_equal(first.data[:, 0], [1, 2, 3, 4])
+    with pytest.raises(SpecError, match="^array_name: no array named 'missing'"):
+        read_lut_bytes(src, "luts.cc", shape=(4,), array_name="missing")

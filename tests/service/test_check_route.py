@@ -79,7 +79,7 @@ def test_3d_glass_table_and_its_axes(client):
 
 
 @pytest.mark.parametrize("query,param", [("array_values=int", "array_values"), ("axes=mu", "axes"),
-                                         ("axes=a,b,c,d", "axes"),
+                                         ("axes=a,b,c,d", "axes"), ("array_name=a%3Bb", "array_name"),
                                          ("heatmap=maybe", "heatmap"), ("color=1", "color")])
 def test_bad_parameters(client, flipped_npy, query, param):
     err(client.post(f"/check?{query}", content=flipped_npy), 400, param)
