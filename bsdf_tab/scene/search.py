@@ -113,18 +113,33 @@ class Verifier:
             worst.append([float(lists[j][2 * k[j] + 1 if j == i else k[j]]) for j in range(len(lists))])
         return per_axis, worst
 
+    def partial(self, trial: list[AxisPlan], reads: list[np.ndarray]) -> dict[str, np.ndarray]:
+        """The candidate's table with only the texels ``reads`` (per axis, node indices) computed:
+        what a lookup that reads no other texel needs (the others are 0 and never read)."""
+        nodes = [a.nodes() for a in trial]
+        sub = self.values([n[r] for n, r in zip(nodes, reads)])
+        out = {}
+        for ch, val in sub.items():
+            arr = np.zeros(tuple(len(a) for a in trial))
+            arr[np.ix_(*reads)] = val
+            out[ch] = arr
+        return out
+
     def line(self, trial: list[AxisPlan], worst_parent: list[list[float]]):
         """(lower bound of the error, per interp axis the worst point found) on the lines of the
-        refined grid through ``worst_parent`` (the parent's worst point per interp axis)."""
-        coarse = [a.nodes() for a in trial]
+        refined grid through ``worst_parent`` (per interp axis, a point whose coordinates on the
+        other axes are nodes of ``trial``). Only the texels of those lines and the nodes their
+        lookup reads are computed."""
         fine = self.fine(trial)
         lines = [[fine[i] if j == i else np.array([x]) for j, x in enumerate(worst_parent[k])]
                  for k, i in enumerate(self.interp)]
-        self.prefetch([coarse] + lines)
-        table = self.values(coarse)
+        both = self.interpolation == "nearest"
+        reads = [[texels_read(a, x, self.interpolation, both) for a, x in zip(trial, lists)] for lists in lines]
+        nodes = [a.nodes() for a in trial]
+        self.prefetch(lines + [[n[r] for n, r in zip(nodes, rd)] for rd in reads])
         bound, worst = 0.0, []
-        for k, (i, lists) in enumerate(zip(self.interp, lines)):
-            err = self.errors(trial, table, lists)
+        for k, (i, lists, rd) in enumerate(zip(self.interp, lines, reads)):
+            err = self.errors(trial, self.partial(trial, rd), lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             j = int(np.argmax(sub))
             bound = max(bound, float(sub.ravel()[j]))
@@ -145,12 +160,8 @@ class Verifier:
         lists = self.fine(trial)
         reads = [texels_read(ax, x, self.interpolation) for ax, x in zip(axes, lists)]
         self.prefetch([lists, [ax.nodes()[r] for ax, r in zip(axes, reads)]])
-        sub = self.values([ax.nodes()[r] for ax, r in zip(axes, reads)])
-        full = {}
-        for ch, v in sub.items():
-            arr = np.zeros(tuple(len(ax) for ax in axes))  # never read outside the computed texels
-            arr[np.ix_(*reads)] = v
-            full[ch] = arr
+        full = self.partial(axes, reads)
+        sub = {ch + "_err": full[ch + "_err"][np.ix_(*reads)] for ch in self.chans}
         grids = np.meshgrid(*lists, indexing="ij")
         direct = self.values(lists)
         diffs = {ch: lookup(full[ch], axes, grids, self.interpolation) - direct[ch] for ch in self.chans}
