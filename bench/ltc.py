@@ -6,16 +6,19 @@ Run: ``python bench/ltc.py [--quick] [--quads 4] [--workers N]``.
 1. Builds the ``heitz-ltc`` preset (64 x 64, GGX, height-correlated, F = 1) and times it: the
    exact albedo, the fit and the fit metric, on this machine's cores (the load average is
    recorded: the cores may be shared).
-2. Fit metric per texel, for both tables: the L1 distance int |D_ltc - f_r cos / E| dL on the
+2. Fit metrics per texel, for both tables: the L1 distance int |D_ltc - f_r cos / E| dL on the
    sphere (E exact), on the table's rule and on an independent finer rule (ours and theirs on
-   the same nodes).
+   the same nodes); and the clipped (shading) metric int over the upper hemisphere of
+   |(magnitude / E) D_ltc - f_r cos / E| dL with each table's own magnitude (ours E / m_up,
+   the shipped its sampled E), on the finer rule.
 3. Magnitude: |E_shipped - E| against the exact albedo.
 4. Shading, per texel: ``--quads`` random quads in the upper hemisphere (half of them around
    the mirror direction), the exact reflected radiance int_P f_r cos dL (unit radiance) by
    adaptive cubature over the quad (triangles split in four until the degree-5 rule and its four
    children agree to 1e-6 of the quad's share, 1e-10 at least), against E x (the clamped-cosine polygon
-   integral over Minv P, horizon-clipped) for our table and the shipped one. Per texel: the
-   mean absolute error over its quads; summarized as max, p99 and mean.
+   integral over Minv P, horizon-clipped) for our table (magnitude E / m_up) and the shipped one,
+   and, as a diagnosis, our lobe with the amplitude E. Per texel: the mean absolute error over
+   its quads; summarized as max, p99 and mean.
 
 Prints a table, writes ``bench/out/ltc.json`` and the heatmaps ``docs/img/ltc.png``. Skips
 (exit 0) when the anchors are absent.
@@ -41,7 +44,7 @@ if str(ROOT) not in sys.path:
 
 from bsdf_tab.ltc import fit_metric, polygon_integral  # noqa: E402
 from bsdf_tab.ltc.lobe import lobe_nodes, lobe_value  # noqa: E402
-from bsdf_tab.ltc.matrix import density, l1_metric  # noqa: E402
+from bsdf_tab.ltc.matrix import clipped_l1_metric, density, l1_metric, upper_mass  # noqa: E402
 from bsdf_tab.presets import build_preset  # noqa: E402
 
 DIST, SHADOWING = "ggx", "correlated"
@@ -195,7 +198,7 @@ def heatmaps(path: Path, rows: list, mu, alpha) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 3, figsize=(13, 8), constrained_layout=True)
+    fig, axes = plt.subplots(len(rows) // 3, 3, figsize=(13, 4 * (len(rows) // 3)), constrained_layout=True)
     ext = [0, 1, 0, 1]
     for ax, (title, data, log) in zip(axes.ravel(), rows):
         img = np.log10(np.maximum(data, 1e-7)) if log else data
@@ -225,9 +228,9 @@ def main(argv=None) -> int:
     ti = np.arange(0, 64, 4 if args.quick else 1)
     select = {"mu": list(ti), "alpha": list(ti)}
     load0 = os.getloadavg()[0]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     ours = build_preset("heitz-ltc", select=select, device=args.device, workers=args.workers)
-    build_s = time.perf_counter() - t0
+    build_s, build_cpu = time.perf_counter() - t0, time.process_time() - c0
     mu, alpha = ours.axes["mu"], ours.axes["alpha"]
     MU, AL = np.meshgrid(mu, alpha, indexing="ij")
     c = ours.channels
@@ -236,7 +239,8 @@ def main(argv=None) -> int:
     minv_ours[..., 0, 2], minv_ours[..., 2, 2] = c["Minv_02"], c["Minv_22"]
     minv_ours[..., 1, 1] = 1.0
     minv_sh = shipped_minv(folder)[np.ix_(ti, ti)]
-    E = c["magnitude"]
+    E = c["albedo"]
+    amp_o = c["magnitude"]
     E_sh = np.load(folder / "ltc_magnitude.npy")[np.ix_(ti, ti)]
 
     # fit metrics: ours from the table; theirs on the same rule; both on a finer independent rule
@@ -244,12 +248,18 @@ def main(argv=None) -> int:
     fit_ours = c["fit_l1"]
     fit_sh, fit_sh_err = fit_metric(DIST, SHADOWING, MU.ravel(), AL.ravel(), minv_sh.reshape(-1, 3, 3), E.ravel())
     fit_sh = fit_sh.reshape(MU.shape)
-    fine_o, fine_s = np.zeros(MU.size), np.zeros(MU.size)
+    fine_o, fine_s, clip_o, clip_s = (np.zeros(MU.size) for _ in range(4))
+    mo, ms = upper_mass(minv_ours).ravel(), upper_mass(minv_sh).ravel()
+    rel_o, rel_s = (amp_o / E).ravel(), (E_sh / E).ravel()
     for rows in np.array_split(np.arange(MU.size), max(1, MU.size // 256)):
         L, f, w = lobe_nodes(DIST, SHADOWING, MU.ravel()[rows], AL.ravel()[rows], *FINE_RULE)
-        fine_o[rows] = l1_metric(density(minv_ours.reshape(-1, 3, 3)[rows], L), f, w, E.ravel()[rows])
-        fine_s[rows] = l1_metric(density(minv_sh.reshape(-1, 3, 3)[rows], L), f, w, E.ravel()[rows])
+        d_o, d_s = density(minv_ours.reshape(-1, 3, 3)[rows], L), density(minv_sh.reshape(-1, 3, 3)[rows], L)
+        fine_o[rows] = l1_metric(d_o, f, w, E.ravel()[rows])
+        fine_s[rows] = l1_metric(d_s, f, w, E.ravel()[rows])
+        clip_o[rows] = clipped_l1_metric(d_o, f, w, E.ravel()[rows], rel_o[rows], mo[rows])
+        clip_s[rows] = clipped_l1_metric(d_s, f, w, E.ravel()[rows], rel_s[rows], ms[rows])
     fine_o, fine_s = fine_o.reshape(MU.shape), fine_s.reshape(MU.shape)
+    clip_o, clip_s = clip_o.reshape(MU.shape), clip_s.reshape(MU.shape)
     metric_s = time.perf_counter() - t1
 
     # shading
@@ -259,53 +269,79 @@ def main(argv=None) -> int:
     flat = quads.reshape(-1, 4, 3)
     mu_q, al_q = np.repeat(MU.ravel(), Q), np.repeat(AL.ravel(), Q)
     exact, exact_err, n_tri = exact_quads(flat, mu_q, al_q)
-    est_o = np.repeat(E.ravel(), Q) * polygon_integral(flat, np.repeat(minv_ours.reshape(-1, 3, 3), Q, axis=0))
+    poly_o = polygon_integral(flat, np.repeat(minv_ours.reshape(-1, 3, 3), Q, axis=0))
+    est_o = np.repeat(amp_o.ravel(), Q) * poly_o
+    est_e = np.repeat(E.ravel(), Q) * poly_o
     est_s = np.repeat(E_sh.ravel(), Q) * polygon_integral(flat, np.repeat(minv_sh.reshape(-1, 3, 3), Q, axis=0))
     shade_o = np.abs(est_o - exact).reshape(T, Q).mean(axis=1).reshape(MU.shape)
+    shade_e = np.abs(est_e - exact).reshape(T, Q).mean(axis=1).reshape(MU.shape)
     shade_s = np.abs(est_s - exact).reshape(T, Q).mean(axis=1).reshape(MU.shape)
+    # the stated bound: a light above the horizon is shaded within E fit_l1_clipped / 2 (+ the cubature's error)
+    bound = np.repeat((E * (c["fit_l1_clipped"] + c["fit_l1_clipped_err"]) / 2).ravel(), Q) + exact_err + 1e-9
+    bound_ratio = float(np.max(np.abs(est_o - exact) / bound))
     shade_time = time.perf_counter() - t2
 
     better_fit = float(np.mean(fine_o < fine_s))
     better_fit_rule = float(np.mean(fit_ours < fit_sh))
+    better_clip = float(np.mean(clip_o < clip_s))
     better_shade = float(np.mean(shade_o < shade_s))
+    better_shade_e = float(np.mean(shade_e < shade_s))
     report = {
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_avg_1min_at_start": load0,
                     "workers": args.workers},
         "texels": int(MU.size), "quads_per_texel": Q, "quick": args.quick,
-        "build_heitz_ltc_s": build_s, "metric_s": metric_s, "shading_s": shade_time,
+        "build_heitz_ltc_s": build_s, "build_heitz_ltc_cpu_s": build_cpu, "metric_s": metric_s, "shading_s": shade_time,
         "fit_l1_ours": summary(fine_o), "fit_l1_shipped": summary(fine_s),
         "fit_l1_ours_better_fraction": better_fit, "fit_l1_ours_better_fraction_table_rule": better_fit_rule,
         "fit_l1_max_ours_minus_shipped": float((fine_o - fine_s).max()),
         "fit_l1_err_ours_max": float(c["fit_l1_err"].max()), "fit_l1_err_shipped_max": float(fit_sh_err.max()),
+        "fit_l1_clipped_ours": summary(clip_o), "fit_l1_clipped_shipped": summary(clip_s),
+        "fit_l1_clipped_ours_better_fraction": better_clip,
+        "fit_l1_clipped_max_ours_minus_shipped": float((clip_o - clip_s).max()),
+        "horizon_mass_ours_min": float(mo.min()), "horizon_mass_shipped_min": float(ms.min()),
         "magnitude_abs_error_shipped": summary(np.abs(E_sh - E)),
         "magnitude_at_normal_incidence_roughness_1": {"ours": float(E[0, -1]), "shipped": float(E_sh[0, -1]),
                                                       "exact": 1.0 - math.log(2.0)},
         "shading_mean_abs_error_ours": summary(shade_o), "shading_mean_abs_error_shipped": summary(shade_s),
         "shading_ours_better_fraction": better_shade,
         "shading_max_ours_minus_shipped": float((shade_o - shade_s).max()),
+        "shading_texels_ours_worse_by_more_than_1e-3": int(np.sum(shade_o - shade_s > 1e-3)),
+        "shading_mean_abs_error_ours_amplitude_E": summary(shade_e),
+        "shading_ours_amplitude_E_better_fraction": better_shade_e,
+        "shading_max_ours_amplitude_E_minus_shipped": float((shade_e - shade_s).max()),
+        "shading_error_over_stated_bound_max": bound_ratio,
         "exact_integral_error_estimate_max": float(exact_err.max()), "exact_triangles": int(n_tri),
     }
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "ltc.json").write_text(json.dumps(report, indent=2))
     heatmaps(ROOT / "docs" / "img" / "ltc.png", [
         ("fit L1, ours", fine_o, True), ("fit L1, shipped", fine_s, True), ("fit L1: ours - shipped", fine_o - fine_s, False),
+        ("clipped fit L1, ours", clip_o, True), ("clipped fit L1, shipped", clip_s, True),
+        ("clipped fit L1: ours - shipped", clip_o - clip_s, False),
         ("mean |shading error|, ours", shade_o, True), ("mean |shading error|, shipped", shade_s, True),
         ("shading error: ours - shipped", shade_o - shade_s, False)], mu, alpha)
 
     def row(name, a, b):
         return f"{name:<34} {a['mean']:>11.3e} {a['p99']:>11.3e} {a['max']:>11.3e}   {b['mean']:>11.3e} {b['p99']:>11.3e} {b['max']:>11.3e}"
 
-    print(f"heitz-ltc {MU.shape[0]} x {MU.shape[1]}: built in {build_s:.1f} s (load average {load0:.1f} at start, "
+    print(f"heitz-ltc {MU.shape[0]} x {MU.shape[1]}: built in {build_s:.1f} s, {build_cpu:.1f} s CPU (load average {load0:.1f} at start, "
           f"{os.cpu_count()} cpus); metric {metric_s:.1f} s; shading {shade_time:.1f} s ({n_tri} triangles)")
     print(f"{'':34} {'ours mean':>11} {'p99':>11} {'max':>11}   {'shipped':>11} {'p99':>11} {'max':>11}")
     print(row("fit L1 (fine rule)", report["fit_l1_ours"], report["fit_l1_shipped"]))
+    print(row("clipped fit L1 (fine rule)", report["fit_l1_clipped_ours"], report["fit_l1_clipped_shipped"]))
     print(row("mean |shading error| per texel", report["shading_mean_abs_error_ours"],
+              report["shading_mean_abs_error_shipped"]))
+    print(row("  ours with amplitude E", report["shading_mean_abs_error_ours_amplitude_E"],
               report["shading_mean_abs_error_shipped"]))
     z = {"mean": 0.0, "p99": 0.0, "max": 0.0}
     print(row("|E - exact E|", z, report["magnitude_abs_error_shipped"]))
     print(f"ours better: fit L1 on {100 * better_fit:.1f}% of texels (table rule {100 * better_fit_rule:.1f}%), "
-          f"worst ours - shipped {report['fit_l1_max_ours_minus_shipped']:+.2e}; shading on {100 * better_shade:.1f}%, "
-          f"worst {report['shading_max_ours_minus_shipped']:+.2e}")
+          f"worst ours - shipped {report['fit_l1_max_ours_minus_shipped']:+.2e}; clipped fit L1 on {100 * better_clip:.1f}%, "
+          f"worst {report['fit_l1_clipped_max_ours_minus_shipped']:+.2e}")
+    print(f"shading: ours better on {100 * better_shade:.1f}%, worst {report['shading_max_ours_minus_shipped']:+.2e} "
+          f"({report['shading_texels_ours_worse_by_more_than_1e-3']} texels worse by > 1e-3); with amplitude E "
+          f"{100 * better_shade_e:.1f}%, worst {report['shading_max_ours_amplitude_E_minus_shipped']:+.2e}; "
+          f"max |error| / stated bound {bound_ratio:.2f}")
     print(f"wrote {OUT / 'ltc.json'} and {ROOT / 'docs' / 'img' / 'ltc.png'}")
     return 0
 

@@ -1,8 +1,10 @@
 """Warp kernels of the LTC fit: the L1 objective for a batch of parameter vectors (float64).
 
-The same sum as :class:`bsdf_tab.ltc.fit._Objective` evaluates in NumPy (tested equal):
+The same sum as :class:`bsdf_tab.ltc.fit.Objective` evaluates in NumPy (tested equal):
 2 sum_k (w_k / E) max(1 - E D_ltc(L_k) / f_k, 0), one thread per evaluation, the lobe's nodes
-fixed per texel, the matrix given by its stored entries (Minv / Minv_11: x, y, z, w). A CPU launch releases the GIL, so fits of disjoint texels in several threads
+fixed per texel, the matrix given by its stored entries (Minv / Minv_11: x, y, z, w); with
+``clipped`` the lobe is D_ltc / m_up (the horizon-mass amplitude, m_up = (1 + n_z) / 2 in closed
+form), which makes the sum the clipped metric int_up |D_ltc / m_up - T|. A CPU launch releases the GIL, so fits of disjoint texels in several threads
 use several cores.
 """
 
@@ -24,6 +26,7 @@ def _objective(
     idx: wp.array(dtype=wp.int32),
     X: wp.array2d(dtype=wp.float64),
     out: wp.array(dtype=wp.float64),
+    clip: int,
 ):
     t = wp.tid()
     b = idx[t]
@@ -32,7 +35,14 @@ def _objective(
     y = X[t, 1]
     z = X[t, 2]
     w_ = X[t, 3]
-    det = wp.abs(x * w_ - y * z) * _INV_PI
+    det_s = x * w_ - y * z
+    det = wp.abs(det_s) * _INV_PI
+    if clip != 0:
+        # the horizon-mass amplitude: D / m_up, m_up = (1 + n_z) / 2 with n along M's row 2 = (-y, 0, x) / det
+        nz = x / wp.max(wp.sqrt(x * x + y * y), wp.float64(1e-300))  # (x, y) = 0 only for a singular Minv
+        if det_s < wp.float64(0.0):
+            nz = -nz
+        det = det / wp.max(wp.float64(0.5) * (wp.float64(1.0) + nz), wp.float64(1e-300))  # m_up > 0 unless all below
     acc = wp.float64(0.0)
     for k in range(L.shape[1]):
         wk = wn[b, k]
@@ -49,7 +59,9 @@ def _objective(
 class ObjectiveKernel:
     """Device copies of one batch's nodes; ``__call__(idx, X)`` as the NumPy objective."""
 
-    def __init__(self, L: np.ndarray, wn: np.ndarray, mf: np.ndarray, device=None, max_batch: int = 0):
+    def __init__(self, L: np.ndarray, wn: np.ndarray, mf: np.ndarray, device=None, max_batch: int = 0,
+                 clipped: bool = False):
+        self.clip = 1 if clipped else 0
         self.device = wp.get_device(device or "cpu")
         self.L = wp.array(np.ascontiguousarray(L), dtype=wp.vec3d, device=self.device)
         self.wn = wp.array(np.ascontiguousarray(wn), dtype=wp.float64, device=self.device)
@@ -66,7 +78,7 @@ class ObjectiveKernel:
             self._idx_h, self._X_h, self._out_h = self._idx.numpy(), self._X.numpy(), self._out.numpy()
         # a recorded launch: the arguments are packed once, each call only sets the dimension
         self._cmd = wp.launch(_objective, dim=1, device=self.device, record_cmd=True,
-                              inputs=[self.L, self.wn, self.mf, self._idx, self._X, self._out])
+                              inputs=[self.L, self.wn, self.mf, self._idx, self._X, self._out, self.clip])
 
     def __call__(self, idx: np.ndarray, X: np.ndarray) -> np.ndarray:
         n = int(idx.size)

@@ -22,6 +22,7 @@ at mu = 0), so grazing V is exact, not clamped.
 from __future__ import annotations
 
 import math
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -30,7 +31,7 @@ try:  # SciPy is optional at run time: math.erfc elementwise otherwise
 except ImportError:  # pragma: no cover - exercised only without SciPy
     _erfc = np.frompyfunc(math.erfc, 1, 1)
 
-__all__ = ["ALPHA_FLOOR", "gauss_legendre", "lambda_cos", "ndf", "lobe_nodes", "lobe_value", "view"]
+__all__ = ["ALPHA_FLOOR", "DISTRIBUTIONS", "gauss_legendre", "lambda_cos", "ndf", "lobe_nodes", "lobe_value", "view"]
 
 #: Below this alpha the lobe's shape is fitted at ALPHA_FLOOR (a Dirac lobe has no density).
 ALPHA_FLOOR = 1e-6
@@ -53,6 +54,51 @@ def gauss_legendre(n: int, a: float, b: float, panels: int = 1):
     return (mid + half * x[None, :]).ravel(), (half * w[None, :]).ravel()
 
 
+def _ggx_lambda_cos(c, s2, alpha):
+    a2s2 = alpha * alpha * s2
+    # c + sqrt(..) > 0 unless c = 0 and alpha s = 0 (then the numerator is 0 too)
+    return a2s2 / (2.0 * np.maximum(c + np.sqrt(c * c + a2s2), _TINY))
+
+
+def _beckmann_lambda_cos(c, s2, alpha):
+    den = alpha * np.sqrt(s2)
+    a = c / np.maximum(den, _TINY)  # den = 0 only at normal incidence (a = inf, Lambda = 0)
+    erfc_a = np.asarray(_erfc(a), dtype=np.float64)
+    with np.errstate(over="ignore"):  # a = inf at normal incidence: exp(-inf) = 0, as it should
+        return -0.5 * c * erfc_a + den * np.exp(-a * a) / (2.0 * math.sqrt(math.pi))
+
+
+def _ggx_ndf(c2, s2, a2):
+    den = a2 * c2 + s2  # > 0 for ch > 0 or alpha > 0
+    return a2 / (math.pi * np.maximum(den * den, _TINY))
+
+
+def _beckmann_ndf(c2, s2, a2):
+    t2 = s2 / np.maximum(c2, _TINY)  # ch > 0 where called
+    return np.exp(-t2 / a2) / (math.pi * a2 * np.maximum(c2 * c2, _TINY))
+
+
+class _Distribution(NamedTuple):
+    """The host functions of one distribution: a new distribution is one entry of :data:`DISTRIBUTIONS`."""
+
+    lambda_cos: Callable  # (c, 1 - c^2, alpha) -> c Lambda(c)
+    ndf: Callable  # (cos^2, sin^2, alpha^2) -> D(h)
+    tan2_of_u: Callable  # (u, 1 - u, alpha^2) -> tan^2(theta_h) at the CDF value u of D cos
+    v_of_tan2: Callable  # (tan^2(theta_h), alpha) -> v, u = 1 - (1 - v)^2
+
+
+DISTRIBUTIONS = {
+    "ggx": _Distribution(
+        _ggx_lambda_cos, _ggx_ndf,
+        lambda u, one_m_u, a2: a2 * u / np.maximum(one_m_u, _TINY),  # v < 1 at every node (v2 < 1)
+        lambda t2, alpha: 1.0 - alpha / np.sqrt(alpha * alpha + t2)),
+    "beckmann": _Distribution(
+        _beckmann_lambda_cos, _beckmann_ndf,
+        lambda u, one_m_u, a2: -a2 * np.log(np.maximum(one_m_u, _TINY)),
+        lambda t2, alpha: 1.0 - np.exp(-t2 / (2.0 * alpha * alpha))),
+}
+
+
 def lambda_cos(dist: str, c, alpha):
     """c Lambda(c) for cos(theta) = c in [0, 1] (exact Smith Lambda; finite at c = 0).
 
@@ -62,28 +108,14 @@ def lambda_cos(dist: str, c, alpha):
     """
     c = np.asarray(c, dtype=np.float64)
     s2 = np.maximum(1.0 - c * c, 0.0)  # clamp: rounding at c = 1
-    if dist == "ggx":
-        a2s2 = alpha * alpha * s2
-        # c + sqrt(..) > 0 unless c = 0 and alpha s = 0 (then the numerator is 0 too)
-        return a2s2 / (2.0 * np.maximum(c + np.sqrt(c * c + a2s2), _TINY))
-    den = alpha * np.sqrt(s2)
-    a = c / np.maximum(den, _TINY)  # den = 0 only at normal incidence (a = inf, Lambda = 0)
-    erfc_a = np.asarray(_erfc(a), dtype=np.float64)
-    with np.errstate(over="ignore"):  # a = inf at normal incidence: exp(-inf) = 0, as it should
-        return -0.5 * c * erfc_a + den * np.exp(-a * a) / (2.0 * math.sqrt(math.pi))
+    return DISTRIBUTIONS[dist].lambda_cos(c, s2, alpha)
 
 
 def ndf(dist: str, ch, alpha):
     """D(h) for cos(theta_h) = ch > 0 (normalized: int D cos dw = 1)."""
     ch = np.asarray(ch, dtype=np.float64)
     c2 = ch * ch
-    s2 = np.maximum(1.0 - c2, 0.0)
-    a2 = alpha * alpha
-    if dist == "ggx":
-        den = a2 * c2 + s2  # > 0 for ch > 0 or alpha > 0
-        return a2 / (math.pi * np.maximum(den * den, _TINY))
-    t2 = s2 / np.maximum(c2, _TINY)  # ch > 0 where called
-    return np.exp(-t2 / a2) / (math.pi * a2 * np.maximum(c2 * c2, _TINY))
+    return DISTRIBUTIONS[dist].ndf(c2, np.maximum(1.0 - c2, 0.0), alpha * alpha)
 
 
 def _g_over_mu(dist: str, shadowing: str, mu, lv, lz, alpha):
@@ -119,9 +151,7 @@ def lobe_value(dist: str, shadowing: str, mu, alpha, L):
 def _v_of_theta(dist: str, theta, alpha):
     """v of the micro-normal polar angle theta (inverse of the maps above), in [0, 1]."""
     t2 = np.tan(np.clip(theta, 0.0, 0.5 * math.pi - 1e-15)) ** 2  # clip: tan finite
-    if dist == "ggx":
-        return 1.0 - alpha / np.sqrt(alpha * alpha + t2)
-    return 1.0 - np.exp(-t2 / (2.0 * alpha * alpha))
+    return DISTRIBUTIONS[dist].v_of_tan2(t2, alpha)
 
 
 def lobe_nodes(dist: str, shadowing: str, mu, alpha, nv: int, nphi: int, v_panels: int = 1,
@@ -171,10 +201,7 @@ def lobe_nodes(dist: str, shadowing: str, mu, alpha, nv: int, nphi: int, v_panel
     one_m_u = (1.0 - v) ** 2
     u = 1.0 - one_m_u
     a2 = (alpha * alpha)[:, None]
-    if dist == "ggx":
-        t2 = a2 * u / np.maximum(one_m_u, _TINY)  # v < 1 at every node (v2 < 1)
-    else:
-        t2 = -a2 * np.log(np.maximum(one_m_u, _TINY))
+    t2 = DISTRIBUTIONS[dist].tan2_of_u(u, one_m_u, a2)
     ch = 1.0 / np.sqrt(1.0 + t2)  # (B, 2 nv')
     sh = np.sqrt(t2) * ch
     sv = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))[:, None]  # clamp: rounding at mu = 1

@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-__all__ = ["density", "density_entries", "entries_from_params", "params_from_entries", "from_storage", "l1_metric", "minv_from_params",
-           "params_dim", "storage"]
+__all__ = ["clipped_l1_metric", "density", "density_entries", "entries_from_params", "params_from_entries", "from_storage",
+           "l1_metric", "minv_from_params", "params_dim", "storage", "upper_mass", "upper_mass_entries"]
 
 params_dim = 4
 _TINY = 1e-300
@@ -97,6 +97,42 @@ def l1_metric(d_ltc, f, w, E):
     # f > 0 wherever w > 0; E > 0 for alpha > 0 (callers pass the lobe's own mass)
     ratio = np.where(f > 0.0, E * d_ltc / np.where(f > 0.0, f, 1.0), 1.0)
     return 2.0 * np.sum(w * np.maximum(1.0 - ratio, 0.0), axis=-1) / np.maximum(E[..., 0], _TINY)
+
+
+def upper_mass(minv):
+    """int over the upper hemisphere of the LTC lobe of ``minv`` (..., 3, 3): its mass above the horizon.
+
+    L = M w maps {L_z > 0} onto the half-space n.w > 0 with n = M^T e_z / |M^T e_z| (M's row 2), and
+    the clamped cosine over a half-space with unit normal n has the mass (1 + n_z) / 2 (half of
+    int |w_z| / pi = 2 over the sphere plus int w_z / pi = n_z over the half-space).
+    """
+    m = np.linalg.inv(np.asarray(minv, dtype=np.float64))
+    r = m[..., 2, :]
+    return 0.5 * (1.0 + r[..., 2] / np.maximum(np.linalg.norm(r, axis=-1), _TINY))  # row of an invertible M != 0
+
+
+def upper_mass_entries(e):
+    """:func:`upper_mass` of stored entries e (..., 4): M's row 2 is (-y, 0, x) / det."""
+    e = np.asarray(e, dtype=np.float64)
+    x, y, z, w = e[..., 0], e[..., 1], e[..., 2], e[..., 3]
+    sgn = np.where(x * w - y * z < 0.0, -1.0, 1.0)
+    return 0.5 * (1.0 + sgn * x / np.maximum(np.hypot(x, y), _TINY))  # (x, y) = 0 only for a singular Minv
+
+
+def clipped_l1_metric(d_ltc, f, w, E, amp, m_up):
+    """int over the upper hemisphere of |amp D_ltc - f_r cos / E| dL (amp: the relative amplitude).
+
+    The shading error of a light P above the horizon with the estimate E amp int_P D_ltc is
+    E abs(int_P (amp D_ltc - T)) <= E times this. With int_up amp D = amp m_up and int T = 1:
+    = amp m_up - 1 + 2 int max(T - amp D, 0), the last term on the true lobe's nodes. For
+    amp = 1 / m_up (the horizon-mass amplitude) it is the L1 distance between the clipped,
+    renormalized LTC lobe and T.
+    """
+    E = np.asarray(E, dtype=np.float64)[..., None]
+    amp = np.asarray(amp, dtype=np.float64)
+    ratio = np.where(f > 0.0, amp[..., None] * E * d_ltc / np.where(f > 0.0, f, 1.0), 1.0)  # f > 0 where w > 0
+    under = 2.0 * np.sum(w * np.maximum(1.0 - ratio, 0.0), axis=-1) / np.maximum(E[..., 0], _TINY)
+    return np.maximum(amp * np.asarray(m_up, dtype=np.float64) - 1.0 + under, 0.0)
 
 
 def storage(minv):

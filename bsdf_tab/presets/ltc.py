@@ -10,7 +10,8 @@ r = a/63, alpha = max(r^2, 1e-5) (``../shared/anchors/heitz_ltc`` README):
   Minv (both normalized to a middle entry of 1: an LTC does not depend on the matrix's scale).
 - ``heitz-ltc-rgba``: the two RGBA textures of the current public code and three.js
   (``ltc_1`` = Minv / Minv_11 entries (Minv_00, Minv_20, Minv_02, Minv_22); ``ltc_2`` =
-  (magnitude, Schlick amplitude, unused 0, clipped-sphere term)), sampled at
+  (magnitude, Schlick amplitude, unused 0, clipped-sphere term), both amplitudes divided by the
+  lobe's mass above the horizon (the kind's default ``amplitude: horizon``)), sampled at
   uv = (roughness, sqrt(1 - cos theta)): the row t is at mu = 1 - (t/63)^2 exactly (mu = 0 on
   the last row), so that the sphere term ``ltc_2.w`` holds S(z = 2 a/63 - 1, l = t/63) there.
 """
@@ -47,10 +48,13 @@ _COMMON = {
     "distribution": "GGX, isotropic",
     "shadowing": "height-correlated Smith G2 = 1 / (1 + Lambda(V) + Lambda(L)) (exact Lambda)",
     "fresnel": "F = 1 in the matrix and magnitude; the Schlick split amplitude separately",
-    "fit": "L1 distance int |D_ltc - f_r cos / E| minimized by deterministic Nelder-Mead on accurate "
-    "quadrature (docs/ltc.md); the public code: Nelder-Mead on a 32 x 32-sample estimate of a cubed error, "
-    "float32",
-    "magnitude": "E = int f_r cos dL (F = 1), exact (adaptive quadrature); the public code: a 1024-sample estimate",
+    "fit": "the clipped L1 distance int over the upper hemisphere of |D_ltc / m_up - f_r cos / E| (fit_l1_clipped; "
+    "E fit_l1_clipped / 2 bounds the shading error of any light above the horizon) minimized by deterministic "
+    "Nelder-Mead on accurate quadrature (docs/ltc.md); fit_l1 is the L1 distance of the normalized lobes on the "
+    "sphere; the public code: Nelder-Mead on a 32 x 32-sample estimate of a cubed error, float32",
+    "magnitude": "E / m_up: the exact albedo E = int f_r cos dL (F = 1, adaptive quadrature) over the LTC lobe's "
+    "mass above the horizon m_up (closed form), so the horizon-clipped lobe is renormalized and a light covering "
+    "the upper hemisphere is shaded exactly (docs/ltc.md); the public code: E from a 1024-sample estimate",
     "frame": "V = (sin theta, 0, cos theta); the lobe D(L) = max(0, (Minv L)_z) |det Minv| / (pi |Minv L|^4)",
 }
 
@@ -63,7 +67,8 @@ PRESET_LIST = [
         outputs=(
             Output("M_00", ("M_00",)), Output("M_20", ("M_20",)), Output("M_02", ("M_02",)), Output("M_22", ("M_22",)),
             Output("Minv_00", ("Minv_00",)), Output("Minv_20", ("Minv_20",)), Output("Minv_02", ("Minv_02",)),
-            Output("Minv_22", ("Minv_22",)), Output("magnitude", ("E",)), Output("fit_l1", ("fit_l1",)),
+            Output("Minv_22", ("Minv_22",)), Output("magnitude", ("magnitude",)), Output("fit_l1", ("fit_l1",)),
+            Output("fit_l1_clipped", ("fit_l1_clipped",)), Output("albedo", ("E",)),
         ),
         conventions={
             **_COMMON,
@@ -72,7 +77,8 @@ PRESET_LIST = [
             "layout": "row t (view), column a (roughness); the anchors' ltc_M[..., k] in glm order k = 3 col + row: "
             "k = 0 -> M_00, 2 -> M_20, 6 -> M_02, 8 -> M_22, 4 -> M_11 = 1 (here), the others 0; ltc_Minv likewise",
             "value": "M and Minv normalized to a middle entry of 1 (the anchors' are scaled otherwise: an LTC is "
-            "invariant to the scale of M); magnitude = E; fit_l1 in [0, 2] with its error channel",
+            "invariant to the scale of M); magnitude = E / m_up (the anchors': E), albedo = E; fit_l1 in [0, 2] and fit_l1_clipped "
+            "with their error channels",
             "not_reproduced": "the public code's sampled fit and its float32 noise (that is the point)",
         },
         anchor="heitz_ltc/ltc_magnitude.npy",
@@ -85,8 +91,8 @@ PRESET_LIST = [
         table="ltc", shadowing="correlated", spec_axes={"mu": "mu", "alpha": "alpha"},
         outputs=(
             Output("ltc1_r", ("Minv_00",)), Output("ltc1_g", ("Minv_20",)), Output("ltc1_b", ("Minv_02",)),
-            Output("ltc1_a", ("Minv_22",)), Output("ltc2_r", ("E",)), Output("ltc2_g", ("fresnel",)),
-            Output("ltc2_a", ("sphere",)), Output("fit_l1", ("fit_l1",)),
+            Output("ltc1_a", ("Minv_22",)), Output("ltc2_r", ("magnitude",)), Output("ltc2_g", ("magnitude_fresnel",)),
+            Output("ltc2_a", ("sphere",)), Output("fit_l1", ("fit_l1",)), Output("fit_l1_clipped", ("fit_l1_clipped",)),
         ),
         conventions={
             **_COMMON,
@@ -95,7 +101,8 @@ PRESET_LIST = [
             "layout": "row t = texture v, column a = texture u; the shader samples uv = (roughness, sqrt(1 - NoV)) "
             "* 63/64 + 0.5/64",
             "value": "ltc_1 (r, g, b, a) = Minv / Minv_11 entries (Minv_00, Minv_20, Minv_02, Minv_22): GLSL "
-            "mat3(vec3(r, 0, g), vec3(0, 1, 0), vec3(b, 0, a)); ltc_2 (r, g, b, a) = (E, fresnel, 0, sphere) "
+            "mat3(vec3(r, 0, g), vec3(0, 1, 0), vec3(b, 0, a)); ltc_2 (r, g, b, a) = (E / m_up, fresnel / m_up, 0, "
+            "sphere) "
             "with specular = (f0 r + (1 - f0) g) x polygon integral; the unused ltc_2.b (0) is not stored; "
             "ltc_2.a = S(z = 2u - 1, l = v), the clipped-sphere form factor / l (u = sqrt(alpha): column 0 at "
             "u = 0.00316)",

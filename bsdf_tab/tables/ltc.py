@@ -20,10 +20,21 @@ Channels (each with ``<X>_err``):
 - ``sphere``: the horizon-clipped sphere form factor ``ltc_2.w`` of the two-texture layout, at
   this texel's texture coordinates (u, v) = (roughness, sqrt(1 - mu)) (roughness = sqrt(alpha)
   on an alpha axis): S(2u - 1, v), :mod:`bsdf_tab.ltc.sphere`; its error is a rounding bound.
+- ``horizon``: m_up, the LTC lobe's mass above the horizon, (1 + n_z) / 2 with n along M's row 2
+  (closed form; error: a rounding bound).
+- ``magnitude``, ``magnitude_fresnel``: what multiplies the polygon integral in shading (the
+  public code's ``ltc_2.x`` and ``ltc_2.y``). With ``amplitude: horizon`` (the default)
+  E / horizon and fresnel / horizon: the horizon-clipped lobe is renormalized, so a light that
+  covers the whole upper hemisphere is shaded exactly; with ``amplitude: albedo``, E and fresnel
+  (the public code's choice).
 - ``fit_l1``: int |D_ltc - f_r cos / E| dL over the sphere, in [0, 2] (mass of D_ltc below the
   horizon counts), by composite Gauss-Legendre quadrature in the lobe's micro-normal
   coordinates; its error is the difference of two rules plus the rule's mass defect against E,
   and 2 below alpha = 1e-6 (the lobe there is the alpha = 1e-6 fit: a Dirac lobe has no density).
+- ``fit_l1_clipped``: int over the upper hemisphere of |(magnitude / E) D_ltc - f_r cos / E| dL,
+  the shading metric: a one-sided light P above the horizon is shaded with an error of at most
+  E (fit_l1_clipped + |horizon magnitude / E - 1|) / 2 (E fit_l1_clipped / 2 with the horizon
+  amplitude). With ``amplitude: horizon`` it is what the fit minimizes; same quadrature and error.
 """
 
 from __future__ import annotations
@@ -33,11 +44,13 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ..axes import alpha_values
-from ..ltc import fit_metric, fit_table, sphere_term_at, storage
+from ..ltc import fit_metrics, fit_table, sphere_term_at, storage, upper_mass
 from ._common import Context, run_grid
 
 MATRIX_CHANNELS = ("Minv_00", "Minv_20", "Minv_02", "Minv_22", "M_00", "M_20", "M_02", "M_22")
-CHANNELS = MATRIX_CHANNELS + ("E", "fresnel", "sphere", "fit_l1")
+CHANNELS = MATRIX_CHANNELS + ("E", "fresnel", "sphere", "horizon", "magnitude", "magnitude_fresnel", "fit_l1",
+                               "fit_l1_clipped")
+AMPLITUDES = ("horizon", "albedo")
 _ROUNDING = 8.0 * np.finfo(np.float64).eps
 
 
@@ -49,20 +62,20 @@ def _workers(ctx: Context) -> int:
     return default_workers()
 
 
-def _metric(nspec: dict, mu: np.ndarray, alpha: np.ndarray, minv: np.ndarray, E: np.ndarray, workers: int):
-    """fit_metric over the grid, in chunks of rows on ``workers`` threads."""
+def _metrics(nspec: dict, mu: np.ndarray, alpha: np.ndarray, minv: np.ndarray, E: np.ndarray, amp: np.ndarray,
+             workers: int) -> dict:
+    """fit_metrics over the grid, in chunks of texels on ``workers`` threads: {name: (value, error)}."""
     MU, AL = np.meshgrid(mu, alpha, indexing="ij")
-    flat = (MU.ravel(), AL.ravel(), minv.reshape(-1, 3, 3), E.ravel())
+    flat = (MU.ravel(), AL.ravel(), minv.reshape(-1, 3, 3), E.ravel(), amp.ravel())
     pieces = np.array_split(np.arange(MU.size), max(1, min(4 * workers, MU.size)))
 
     def one(p):
-        return fit_metric(nspec["distribution"], nspec["shadowing"], flat[0][p], flat[1][p], flat[2][p], flat[3][p])
+        return fit_metrics(nspec["distribution"], nspec["shadowing"], *(a[p] for a in flat))
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         parts = list(pool.map(one, pieces))
-    value = np.concatenate([v for v, _ in parts]).reshape(MU.shape)
-    error = np.concatenate([e for _, e in parts]).reshape(MU.shape)
-    return value, error
+    return {name: tuple(np.concatenate([part[name][k] for part in parts]).reshape(MU.shape) for k in range(2))
+            for name in parts[0]}
 
 
 def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
@@ -73,7 +86,7 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     alpha = alpha_values(axes)
     rough = np.asarray(axes["roughness"], dtype=np.float64) if "roughness" in axes else np.sqrt(alpha)
     n = mu.size * alpha.size
-    ctx.expect(2 * n)  # the fit, then the metric
+    ctx.expect(2 * n)  # the fit, then the metrics
     report = ctx.reporter()
     done = 0
 
@@ -83,19 +96,28 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
         report(done, 2 * n)
 
     workers = _workers(ctx)
+    horizon_amp = nspec["amplitude"] == "horizon"
     minv = fit_table(nspec["distribution"], nspec["shadowing"], mu, alpha, progress, workers=workers,
-                     device=ctx.device)
-    fit_l1, fit_l1_err = _metric(nspec, mu, alpha, minv, E, workers)
+                     device=ctx.device, clipped=horizon_amp)
+    m_up = upper_mass(minv)
+    # m_up > 0: a fitted lobe has its mass about the true lobe's, above the horizon
+    amp = 1.0 / np.maximum(m_up, 1e-300) if horizon_amp else np.ones_like(E)
+    metrics = _metrics(nspec, mu, alpha, minv, E, amp, workers)
+    fit_l1, fit_l1_err = metrics["fit_l1"]
+    clip_l1, clip_l1_err = metrics["fit_l1_clipped"]
     progress(n)
     inv_entries, m_entries = storage(minv)
     out = {name: inv_entries[..., k] for k, name in enumerate(MATRIX_CHANNELS[:4])}
     out.update({name: m_entries[..., k] for k, name in enumerate(MATRIX_CHANNELS[4:])})
     sphere = sphere_term_at(mu[:, None], rough[None, :])
-    out.update({"E": E, "fresnel": values[..., 1], "sphere": sphere, "fit_l1": fit_l1})
+    out.update({"E": E, "fresnel": values[..., 1], "sphere": sphere, "horizon": m_up, "magnitude": amp * E,
+                "magnitude_fresnel": amp * values[..., 1], "fit_l1": fit_l1, "fit_l1_clipped": clip_l1})
     for name in MATRIX_CHANNELS:
         out[f"{name}_err"] = np.zeros_like(E)
     out.update({"E_err": E_err, "fresnel_err": errors[..., 1], "sphere_err": _ROUNDING * np.maximum(1.0, sphere),
-                "fit_l1_err": fit_l1_err})
+                "horizon_err": _ROUNDING * np.ones_like(E), "magnitude_err": amp * E_err + _ROUNDING * amp * E,
+                "magnitude_fresnel_err": amp * errors[..., 1] + _ROUNDING * amp * values[..., 1],
+                "fit_l1_err": fit_l1_err, "fit_l1_clipped_err": clip_l1_err})
     return out
 
 
@@ -108,7 +130,20 @@ KINDS = {
         "Minv / Minv_11 entries (Minv_00, Minv_20, Minv_02, Minv_22: the ltc_1 RGBA of the public code and "
         "three.js), M = its inverse, the exact albedo E, the Schlick split amplitude fresnel (ltc_2.y), the "
         "clipped-sphere term sphere (ltc_2.w at u = roughness, v = sqrt(1 - mu)) and the L1 fit error fit_l1 "
-        "= int |D_ltc - f_r cos / E| in [0, 2]",
+        "= int |D_ltc - f_r cos / E| in [0, 2]; horizon (the lobe's mass above the horizon), magnitude and "
+        "magnitude_fresnel (the amplitudes shading multiplies the polygon integral by: E / horizon, fresnel / horizon "
+        "with amplitude horizon, E and fresnel with amplitude albedo) and fit_l1_clipped (int over the upper "
+        "hemisphere of |(magnitude / E) D_ltc - f_r cos / E|: E fit_l1_clipped / 2 bounds the shading error of a "
+        "light above the horizon with the horizon amplitude)",
+        "keys": {
+            "amplitude": {
+                "choices": AMPLITUDES,
+                "default": "horizon",
+                "description": "the shading amplitude and the fit objective: horizon (magnitude = E / the LTC's mass "
+                "above the horizon, the fit minimizes fit_l1_clipped) or albedo (magnitude = E as the public code "
+                "stores it, the fit minimizes fit_l1)",
+            },
+        },
         "compute": compute,
     },
 }

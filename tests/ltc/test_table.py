@@ -21,7 +21,8 @@ from tests.reference import microfacet_ref as ref
 def test_catalog_and_spec():
     info = CATALOG["ltc"]
     assert info["axes"] == ("mu", "alpha") and info["fresnel"] == "one"
-    assert {"Minv_00", "Minv_20", "Minv_02", "Minv_22", "E", "fresnel", "sphere", "fit_l1"} <= set(info["channels"])
+    assert {"Minv_00", "Minv_20", "Minv_02", "Minv_22", "E", "fresnel", "sphere", "fit_l1", "horizon", "magnitude",
+            "magnitude_fresnel", "fit_l1_clipped"} <= set(info["channels"])
     n = normalize_spec({"table": "ltc", "axes": {"mu": [0.5], "roughness": [0.5]}})
     assert list(n["axes"]) == ["mu", "roughness"]
     with pytest.raises(bsdf_tab.SpecError, match="fresnel"):
@@ -85,7 +86,7 @@ def test_quad_light_shaded_in_a_warp_kernel(table):
     mu, rough = table.axes["mu"], table.axes["roughness"]
     idx = [(i, j) for i in range(2) for j in range(2)]
     e = np.array([[ch[k][i, j] for k in ("Minv_00", "Minv_20", "Minv_02", "Minv_22")] for i, j in idx])
-    amp = np.array([ch["E"][i, j] for i, j in idx])
+    amp = np.array([ch["magnitude"][i, j] for i, j in idx])  # E / horizon: the default amplitude
     out = wp.zeros((len(idx), len(QUADS)), dtype=wp.float64, device="cpu")
     wp.launch(_shade, dim=(len(idx), len(QUADS)), device="cpu",
               inputs=[wp.array(e, dtype=wp.vec4d, device="cpu"), wp.array(amp, dtype=wp.float64, device="cpu"),
@@ -94,8 +95,9 @@ def test_quad_light_shaded_in_a_warp_kernel(table):
     for k, (i, j) in enumerate(idx):
         for q, quad in enumerate(QUADS):
             exact = exact_quad(quad, mu[i], rough[j] ** 2)
-            # |int_P (D_ltc - T)| <= int |D_ltc - T| = fit_l1: the error bound the table states
-            bound = ch["E"][i, j] * (ch["fit_l1"][i, j] + ch["fit_l1_err"][i, j]) + 1e-7
+            # a light above the horizon: E |int_P (D_ltc / m_up - T)| <= E fit_l1_clipped / 2 (both lobes have
+            # unit mass over the upper hemisphere), the bound the table states
+            bound = ch["E"][i, j] * (ch["fit_l1_clipped"][i, j] + ch["fit_l1_clipped_err"][i, j]) / 2 + 1e-7
             assert abs(shaded[k, q] - exact) <= bound
         big = exact_quad(QUADS[0], mu[i], rough[j] ** 2)
         assert shaded[k, 0] == pytest.approx(big, rel=0.1)
