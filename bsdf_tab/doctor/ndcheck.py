@@ -274,9 +274,10 @@ def check_nd(kind: str, img: LutImage, data: np.ndarray, *, expect_axes=None, he
 
 
 def _odd_ends(resid: np.ndarray):
-    """End slices (the first or last checked node of an axis) whose residual is over 10 x the
-    others' and above 1e-3: a convention of the file's own there (Cycles' ior = 1 slice,
-    OpenPBR's roughness 0). Returns [(axis, index)], and the mask of the other texels."""
+    """End slices (the first or last checked node of an axis) whose residual is a step: over 10 x
+    the neighbouring slice's and the others' and above 1e-3, a convention of the file's own
+    there (Cycles' ior = 1 slice, OpenPBR's roughness 0); a residual that grows toward the end
+    (a bias at grazing angles) is not one. Returns [(axis, index)], and the mask of the others."""
     a = np.nanmax(np.abs(resid), axis=-1)
     keep = np.ones(a.shape, dtype=bool)
     odd = []
@@ -285,9 +286,11 @@ def _odd_ends(resid: np.ndarray):
         if n < 4:
             continue
         rest = np.take(a, range(1, n - 1), axis=ax)
-        for i in (0, n - 1):
+        for i, nb in ((0, 1), (n - 1, n - 2)):
             end = np.take(a, [i], axis=ax)
-            if np.nanmean(end) > 10 * max(float(np.nanmean(rest)), 1e-6) and np.nanmax(end) > 1e-3:
+            near = float(np.nanmean(np.take(a, [nb], axis=ax)))
+            if (np.nanmean(end) > 10 * max(float(np.nanmean(rest)), near, 1e-6)
+                    and np.nanmax(end) > 1e-3):
                 odd.append((ax, i))
                 sl = [slice(None)] * a.ndim
                 sl[ax] = i
@@ -372,4 +375,8 @@ def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: di
         rms = float(np.sqrt(np.nanmean(hf**2)))
         if rms > floor:
             report.noise = {"rms": rms}
-            f.append(f"Monte Carlo noise: texel-to-texel residual rms {rms:.2g}")
+            if any(x.startswith("biased") for x in f):  # a bias that varies from node to node looks the same
+                f.append(f"uneven residual: texel-to-texel rms {rms:.2g} (the bias varies from node to node; "
+                         "Monte Carlo noise would look the same)")
+            else:
+                f.append(f"Monte Carlo noise: texel-to-texel residual rms {rms:.2g}")
