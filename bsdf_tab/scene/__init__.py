@@ -7,7 +7,9 @@
     print(plan.text()); bake_scene(plan, "luts/")
 
 Modules: :mod:`.parse` (scene files, validation through :mod:`bsdf_tab.spec`), :mod:`.plan`
-(the plan types and the search), :mod:`.lookup` (how a renderer reads a planned table),
+(the plan types and ``plan_scene``), :mod:`.search` (the search for the smallest table and its
+checks), :mod:`.texels` (every texel of a planning run computed once), :mod:`.lookup` (how a
+renderer reads a planned table),
 :mod:`.manifest` (``manifest.json`` and the bake). The command line (``bsdf-tab plan``,
 ``bsdf-tab bake SCENE``) lives in :mod:`bsdf_tab.cli.plan`, ``POST /scenes`` in the service.
 """
