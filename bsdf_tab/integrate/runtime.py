@@ -4,19 +4,46 @@ A Warp CPU launch runs on one thread and releases the GIL, so W Python threads t
 disjoint index sets keep W cores busy. Texels are independent, so the result does not depend
 on the number of workers or on the chunking (tested). On a CUDA device one thread launches
 large chunks instead.
+
+The worker threads persist: each calling thread keeps one pool per worker count (thread-local,
+so concurrent computations never queue behind each other's chunks), and a program that
+tabulates many small tables (the scene planner: hundreds of calls) starts its threads once.
+A forked child drops the pools it inherited (their threads do not exist there).
 """
 
 from __future__ import annotations
 
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Callable
 
 import numpy as np
 import warp as wp
 
 ProgressFn = Callable[[int, int], None]
+
+_local = threading.local()  # .pools: {workers: ThreadPoolExecutor} of the calling thread
+
+
+def _reset_after_fork() -> None:
+    global _local
+    _local = threading.local()  # the inherited executors have no threads in the child
+
+
+if hasattr(os, "register_at_fork"):  # pragma: no branch - POSIX
+    os.register_at_fork(after_in_child=_reset_after_fork)
+
+
+def _pool(workers: int) -> ThreadPoolExecutor:
+    """The calling thread's pool of ``workers`` threads (created on first use)."""
+    pools = getattr(_local, "pools", None)
+    if pools is None:
+        pools = _local.pools = {}
+    pool = pools.get(workers)
+    if pool is None:
+        pool = pools[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="bsdf-tab-chunk")
+    return pool
 
 
 def default_workers() -> int:
@@ -107,16 +134,16 @@ def run_chunks(
         for piece in pieces[1:]:
             work(piece)
         return
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(work, piece) for piece in pieces[1:]]
-        try:
-            for fut in futures:
-                fut.result()
-        except BaseException:
-            stop.set()
-            for fut in futures:
-                fut.cancel()
-            raise
+    futures = [_pool(workers).submit(work, piece) for piece in pieces[1:]]
+    try:
+        for fut in futures:
+            fut.result()
+    except BaseException:
+        stop.set()
+        for fut in futures:
+            fut.cancel()
+        wait(futures)  # the chunks already running finish before the caller sees the exception
+        raise
 
 
 def texel_arrays(mu, alpha, eta, device: wp.Device):
