@@ -24,20 +24,31 @@ critical-angle crossings).
 
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
 sum meets the budget: a quarter of the tolerance for the inner integrals, the rest for the outer
-one). The outer integral starts from the breakpoints above, fixed angles theta_m = k pi/16 (the
-v map packs theta_m >> alpha into a sliver near v = 1), and pieces no longer than
-``max_piece`` = 1/4 in v (1/8 before issue 14: the same errors on the held-out set, 8% more
-evaluations at tolerance 5e-7 and 25% more at 1e-3; see docs/methods.md).
+one). The outer integral starts from the breakpoints above, each piece between them cut into
+equal parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances >= 1e-5, where
+it measured as honest: docs/methods.md) (the v map packs theta_m >> alpha
+into a sliver near v = 1, where a single rule could otherwise step over the horizon structure
+unnoticed), and no piece longer than ``max_piece`` = 1/4 in v. Before issue 14's second round
+the floor was seven fixed angles theta_m = k pi/16 wherever they fell (``n_fixed`` = 7,
+``max_dtheta`` = 0): slivers next to breakpoints, and a held-out texel (eta 0.354, alpha 0.0019)
+whose reported error was below its true error at tolerances <= 1e-6 (docs/methods.md).
 
-Error estimate: per rule, QUADPACK's rescaling of |K15 - G7| (err_model 1, default) or
-|K15 - G7| itself (err_model 0), summed over the accepted intervals, plus the inner estimates
-carried through the outer weights; floored at 1e-10. The inner phi level uses |K15 - G7|
-(``err_model_inner`` 0, since issue 14): measured, not proven; the outer rule still compares K15 with G7 over 15
-inner results, so an inner error the plain estimate misses shows up in the outer estimate, and
-on the accuracy sweep (770 texels, tolerances 1e-2 .. 1e-7) the max true errors and honesty are
-the same as with the rescaled inner estimate, for 8-29% fewer evaluations (docs/methods.md). Rule applications are capped per texel
-(``max_rules_outer``, ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance
-within the cap reports its large estimate instead of a wrong small one.
+Error estimate: the outer v level uses QUADPACK's rescaling of |K15 - G7| (err_model 1,
+default; 0: |K15 - G7| itself; 2: as the inner default), summed over the accepted intervals,
+plus the inner estimates carried through the outer weights; floored at 1e-9 (tolerances >= 1e-7;
+down to 1e-10 below). The inner phi
+level (``err_model_inner`` 2, issue 14) scales |K15 - G7| (the error of G7) by
+min(1, ``err_safety`` r^``err_power``) = min(1, r^3), r the decay ratio of the last Legendre
+coefficients of the 15-node interpolant (:func:`bsdf_tab.integrate.quadrature.decay_ratio`):
+where the coefficients fall fast, K15 is resolved far beyond G7; where they do not (r >= 1) the
+estimate is |K15 - G7|. Measured, not proven: on the accuracy sweep and a held-out set (870
+texels, tolerances 1e-2 .. 1e-7) no texel reports less than its true error and the worst
+true / reported ratio is 0.40; the outer rule still compares K15 with G7 over 15 inner results,
+so an inner error the estimate misses perturbs the outer difference. The same estimate at the
+outer level, or r^6, reported errors below the true ones (docs/methods.md). Rule applications
+are capped per texel (``max_rules_outer``, ``max_rules_inner`` per phi piece): a texel that
+cannot reach the tolerance within the cap reports its large estimate instead of a wrong small
+one.
 
 Where the pieces live: the integrand and the mirror limit alpha = 0 in
 :mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the D cos CDF
@@ -59,6 +70,7 @@ import numpy as np
 import warp as wp
 
 from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
+from ..model.fresnel import FRESNEL_DIELECTRIC
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
     MODE_DFG,
     MODE_DIELECTRIC,
@@ -69,17 +81,16 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
     integrand_phi,
     mode_id,
 )
-from .quadrature import WG7_D, WGK_D, XGK_D, gk_error, make_global_bisection
+from .quadrature import WG7_D, WGK_D, XGK_D, decay_ratio, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
 
 _vec5d = wp.types.vector(length=5, dtype=wp.float64)
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)
-_vec16d = wp.types.vector(length=16, dtype=wp.float64)
+_vec16d = vec16d
 _vec24d = wp.types.vector(length=24, dtype=wp.float64)
-_vec32d = wp.types.vector(length=32, dtype=wp.float64)
+_vec48d = wp.types.vector(length=48, dtype=wp.float64)
 
 _PI = wp.constant(wp.float64(math.pi))
-_ERR_FLOOR = wp.constant(wp.float64(1.0e-10))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
 
 
@@ -93,7 +104,7 @@ def _phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
 @wp.func
 def _gk_phi(p: TexelParams, x: _vec5d, ta: wp.float64, tb: wp.float64):
     """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b)
-    (cos, sin, tan of theta_m and the piece). Returns (K, error, 1): one rule application."""
+    (cos, sin, tan of theta_m and the piece). Returns (K, error, 15 evaluations)."""
     cm = x[0]
     sm = x[1]
     tm = x[2]
@@ -127,7 +138,10 @@ def _gk_phi(p: TexelParams, x: _vec5d, ta: wp.float64, tb: wp.float64):
         if j >= 8:
             jj = j - 8
         resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
-    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(1)
+    if p.err_model_inner == 2:
+        r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
+        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
+    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
 
 
 # globally adaptive G7-K15 over one phi piece (t in [0, 1]): bisect the worst interval until the
@@ -155,6 +169,17 @@ def _insert_sorted24(v: _vec24d, n: wp.int32, x: wp.float64):
         i -= 1
     v[i] = x
     return v
+
+
+@wp.func
+def _tir_eta(p: TexelParams):
+    """The relative IOR whose critical angle kinks the integrand (eta < 1), or 2 (none): the
+    dielectric mode's eta, or a reflection's dielectric Fresnel eta (p0)."""
+    if p.mode == MODE_DIELECTRIC and p.eta > wp.float64(0.0):
+        return p.eta
+    if p.mode == MODE_REFLECT and p.ftype == FRESNEL_DIELECTRIC and p.fp0 > wp.float64(0.0):
+        return p.fp0
+    return wp.float64(2.0)
 
 
 @wp.func
@@ -225,7 +250,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
     if ss <= wp.float64(1.0e-300):
         # i.m does not depend on phi (normal incidence or m = n): constant integrand
         f = integrand_phi(p, cm, sm, tm, wp.float64(0.5) * pi)
-        return f * pi, err, int(1), int(0)
+        return f * pi, err, int(1), int(0)  # one evaluation
     c_min = p.mu * cm - ss
     c_max = p.mu * cm + ss
     cuts = _vec6d()
@@ -252,6 +277,10 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
         else:
             # grazing from inside: o_t.n = (c/eta - sqrt(k2)) cos(theta_m) > 0, never transmitted
             t_floor = wp.float64(2.0)
+    elif _tir_eta(p) < one:
+        # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
+        cands[2] = wp.sqrt(one - _tir_eta(p) * _tir_eta(p))
+        ncand = 3
     for q in range(ncand):
         cb = cands[q]
         if cb > c_min and cb < c_max:
@@ -327,6 +356,9 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
         if j >= 8:
             jj = j - 8
         resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    if p.err_model == 2:
+        r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
+        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power) + ei * hl, rules
     return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl, rules
 
 
@@ -354,6 +386,10 @@ def texel_kernel(
     max_piece: wp.float64,
     n_fixed: wp.int32,
     err_model_inner: wp.int32,
+    err_safety: wp.float64,
+    err_power: wp.float64,
+    max_dtheta: wp.float64,
+    err_floor: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -369,6 +405,8 @@ def texel_kernel(
     p.err_model_inner = err_model
     if err_model_inner >= 0:
         p.err_model_inner = err_model_inner
+    p.err_safety = err_safety
+    p.err_power = err_power
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     mu = p.mu
@@ -382,8 +420,9 @@ def texel_kernel(
     cands[1] = hp - theta_i
     cands[2] = wp.float64(0.5) * (hp + theta_i)
     ncand = int(3)
-    if mode == MODE_DIELECTRIC and p.eta < one:
-        theta_c = wp.acos(wp.sqrt(one - p.eta * p.eta))
+    if _tir_eta(p) < one:
+        # the critical angle (dielectric mode, or reflection with a dielectric Fresnel)
+        theta_c = wp.acos(wp.sqrt(one - _tir_eta(p) * _tir_eta(p)))
         cands[3] = wp.abs(theta_i - theta_c)
         cands[4] = theta_i + theta_c
         ncand = 5
@@ -409,36 +448,58 @@ def texel_kernel(
     # at most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * _PI
     tol_in = inner_share * tol_total
-    # initial intervals: the pieces between the breakpoints, none longer than max_piece in v
-    ends = _vec32d()
+    # initial intervals: the pieces between the breakpoints, each cut into equal parts in
+    # theta_m no wider than max_dtheta (when > 0), none longer than max_piece in v; the
+    # splits stop short of the capacity so that every breakpoint (and v_end) is kept
+    th_end = hp
+    if mode != MODE_DIELECTRIC:
+        th_end = wp.float64(0.5) * (hp + theta_i)
+    ends = _vec48d()
     ends[0] = zero
     ne = int(1)
+    th_prev = zero
     for q in range(nt + 1):
         vb = v_end
+        tb = th_end
         if q < nt:
+            tb = wp.min(th[q], th_end)
             vb = wp.min(dcos_v_of_theta(th[q], p.alpha, p.dist), v_end)
-        while vb - ends[ne - 1] > max_piece and ne < 30:
+        room = 44 - (nt + 1 - q)
+        if max_dtheta > zero and tb > th_prev:
+            nth = int(wp.ceil((tb - th_prev) / max_dtheta))
+            for k in range(1, nth):
+                tk = th_prev + (tb - th_prev) * wp.float64(k) / wp.float64(nth)
+                vk = wp.min(dcos_v_of_theta(tk, p.alpha, p.dist), v_end)
+                while vk - ends[ne - 1] > max_piece and ne < room:
+                    ends[ne] = ends[ne - 1] + max_piece
+                    ne += 1
+                if vk > ends[ne - 1] and ne < room:
+                    ends[ne] = vk
+                    ne += 1
+        while vb - ends[ne - 1] > max_piece and ne < room:
             ends[ne] = ends[ne - 1] + max_piece
             ne += 1
-        if vb > ends[ne - 1] and vb <= v_end and ne < 31:
+        if vb > ends[ne - 1] and vb <= v_end and ne < 47:
             ends[ne] = vb
             ne += 1
+        th_prev = wp.max(th_prev, tb)
     ne -= 1
     total, err, rules, rules_ref = _adaptive_outer(p, wp.vec2d(tol_in, wp.float64(max_rules_inner)), ends, ne,
                                                    tol_total, max_rules_outer, wp.vec2i(0, 0))
     value[i, 0] = total[0] / _PI
     value[i, 1] = total[1] / _PI
-    # floor: float64 accumulation over ~1e5 terms is not trusted below 1e-10 absolute
-    error[i, 0] = wp.max(err[0] / _PI, _ERR_FLOOR)
-    error[i, 1] = wp.max(err[1] / _PI, _ERR_FLOOR)
-    # integrand evaluations: 15 per inner rule application
-    cost[i] = rules[0] * 15
+    # floor (err_floor, see integrate_texels): what the estimates cannot certify
+    error[i, 0] = wp.max(err[0] / _PI, err_floor)
+    error[i, 1] = wp.max(err[1] / _PI, err_floor)
+    # integrand evaluations (the inner rules count theirs: 15 or 7 per application, 1 for a
+    # phi-independent integrand)
+    cost[i] = rules[0]
     # where they went: (outer floor, outer bisections) x (inner first rules, inner bisections)
     fl = rules - rules_ref
-    detail[i, 0] = (fl[0] - fl[1]) * 15
-    detail[i, 1] = fl[1] * 15
-    detail[i, 2] = (rules_ref[0] - rules_ref[1]) * 15
-    detail[i, 3] = rules_ref[1] * 15
+    detail[i, 0] = fl[0] - fl[1]
+    detail[i, 1] = fl[1]
+    detail[i, 2] = rules_ref[0] - rules_ref[1]
+    detail[i, 3] = rules_ref[1]
 
 
 def integrate_texels(
@@ -461,8 +522,11 @@ def integrate_texels(
     max_rules_inner: int = 200,
     inner_share: float = 0.25,
     max_piece: float = 0.25,
-    n_fixed: int = 7,
-    err_model_inner: int = 0,
+    n_fixed: int = 0,
+    err_model_inner: int = 2,
+    err_safety: float = 1.0,
+    err_power: float = 3.0,
+    max_dtheta: float | None = None,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -475,11 +539,14 @@ def integrate_texels(
         Flat float64 arrays of the same length; ``eta`` only for "dielectric".
     tol : float
         Target absolute error per texel and channel.
-    inner_share, max_piece, n_fixed : float, float, int
+    inner_share, max_piece, n_fixed, max_dtheta : float, float, int, float
         The floor and the budget (benchmarks and experiments): the share of the tolerance given
-        to the inner phi integrals (0.25), the longest initial outer piece in v (0.25), and the
+        to the inner phi integrals (0.25), the longest initial outer piece in v (0.25), the
         number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
-        breakpoints (7). ``err_model_inner``: the inner level's error model (-1: ``err_model``).
+        breakpoints (0; 7 before issue 14's second round), and the widest initial outer piece in
+        theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut). ``err_model_inner``: the inner level's error model
+        (-1: ``err_model``; 2, the default: |K15 - G7| times min(1, err_safety r^err_power),
+        r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3).
 
     Returns
     -------
@@ -494,6 +561,13 @@ def integrate_texels(
     """
     dev = resolve_device(device)
     check_workers(workers)
+    # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D
+    # tail were measured under smaller estimates, docs/methods.md), down to 1e-10 (float64
+    # accumulation over ~1e5 terms) for tighter tolerances
+    err_floor = max(1e-10, min(1e-9, 0.01 * float(tol)))
+    if max_dtheta is None:
+        # the floor follows the tolerance: pi/8 parts at tolerances >= 1e-5, pi/16 below
+        max_dtheta = math.pi / 8 if tol >= 1e-5 else math.pi / 16
     mode_sel = mode_id(mode)
     mu, alpha, eta, mu_w, alpha_w, eta_w = texel_arrays(mu, alpha, eta, dev)
     n = mu.size
@@ -509,7 +583,7 @@ def integrate_texels(
             inputs=[
                 idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
-                float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), value, error, cost, detail,
+                float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta), err_floor, value, error, cost, detail,
             ],
             device=dev,
         )

@@ -71,6 +71,8 @@ class TexelParams:
     li: wp.float64  # mu * Lambda(mu)
     err_model: wp.int32  # adaptive only; 0: |K15 - G7|, 1: QUADPACK rescaling
     err_model_inner: wp.int32  # adaptive only: the inner phi level's error model
+    err_safety: wp.float64  # adaptive only: err_model 2's safety factor
+    err_power: wp.float64  # adaptive only: err_model 2's power of the decay ratio
 
 
 @wp.func

@@ -49,6 +49,65 @@ XGK_D = wp.constant(vec8d(*XGK.tolist()))
 WGK_D = wp.constant(vec8d(*WGK.tolist()))
 WG7_D = wp.constant(vec8d(*WG7.tolist()))
 
+# Legendre coefficients of the degree-14 interpolant at the 15 nodes (orthonormal basis on
+# [-1, 1], nodes in GK_X order): rows k = 9 .. 14 of the inverse Vandermonde matrix. Their
+# decay says how well the 15 values resolve the integrand (see :func:`decay_ratio`).
+_LEG_V = np.polynomial.legendre.legvander(GK_X, 14) * np.sqrt((2.0 * np.arange(15) + 1.0) / 2.0)
+LEG_TAIL = np.linalg.inv(_LEG_V)[9:15]
+vec16d = wp.types.vector(length=16, dtype=wp.float64)
+LEG9_D = wp.constant(vec16d(*(LEG_TAIL[0].tolist() + [0.0])))
+LEG10_D = wp.constant(vec16d(*(LEG_TAIL[1].tolist() + [0.0])))
+LEG11_D = wp.constant(vec16d(*(LEG_TAIL[2].tolist() + [0.0])))
+LEG12_D = wp.constant(vec16d(*(LEG_TAIL[3].tolist() + [0.0])))
+LEG13_D = wp.constant(vec16d(*(LEG_TAIL[4].tolist() + [0.0])))
+LEG14_D = wp.constant(vec16d(*(LEG_TAIL[5].tolist() + [0.0])))
+
+
+@wp.func
+def decay_ratio(f: vec16d):
+    """How fast the Legendre coefficients of the 15-node interpolant of ``f`` (values at the
+    nodes in GK_X order) fall over their last six degrees: r = max(A / B, B / C) with
+    A = |c13| + |c14|, B = |c11| + |c12|, C = |c9| + |c10| (pairs, so that a function even or
+    odd about the centre is not misread). r >= 1 (or 1 when B or C vanish while A does not)
+    means the values do not resolve the function; 0 when A = 0 (for a polynomial of degree <= 8
+    the six coefficients are rounding noise, and so is |K15 - G7|)."""
+    c9 = wp.float64(0.0)
+    c10 = wp.float64(0.0)
+    c11 = wp.float64(0.0)
+    c12 = wp.float64(0.0)
+    c13 = wp.float64(0.0)
+    c14 = wp.float64(0.0)
+    for j in range(15):
+        c9 += LEG9_D[j] * f[j]
+        c10 += LEG10_D[j] * f[j]
+        c11 += LEG11_D[j] * f[j]
+        c12 += LEG12_D[j] * f[j]
+        c13 += LEG13_D[j] * f[j]
+        c14 += LEG14_D[j] * f[j]
+    a = wp.abs(c13) + wp.abs(c14)
+    b = wp.abs(c11) + wp.abs(c12)
+    c = wp.abs(c9) + wp.abs(c10)
+    if a <= wp.float64(0.0):
+        return wp.float64(0.0)
+    if b <= wp.float64(0.0) or c <= wp.float64(0.0):
+        # a top coefficient without lower ones: no decay to trust (and no division by 0)
+        return wp.float64(1.0)
+    return wp.max(a / b, b / c)
+
+
+@wp.func
+def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, power: wp.float64):
+    """|K15 - G7| scaled by min(1, safety r^power) per channel (r from :func:`decay_ratio`),
+    floored at 50 ulp of |K|: the G7 error, shrunk where the coefficients show that K15 is
+    resolved beyond G7."""
+    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for c in range(2):
+        d = wp.abs(rk[c] - rg[c])
+        e = d * wp.min(wp.float64(1.0), safety * wp.pow(r[c], power))
+        out[c] = wp.max(e, wp.float64(1.1e-14) * wp.abs(rk[c]))
+    return out
+
+
 STACK = 64
 """Interval capacity of one global bisection (the estimates still count when it is full)."""
 stackd = wp.types.vector(length=STACK, dtype=wp.float64)

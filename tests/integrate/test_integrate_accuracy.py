@@ -356,6 +356,40 @@ def test_total_internal_reflection(dist, shad):
             assert v[j, 1] <= 1e-3 and v[j, 0] >= 0.99
 
 
+def test_reflection_through_a_dielectric_fresnel_below_one():
+    """Reflection with F = dielectric Fresnel of eta < 1 has F's square-root kink at the critical
+    angle inside the phi range; the integrator must cut there (issue 14 found a texel off by
+    1.46e-5, reporting 4.3e-7). GGX correlated, eta = 0.6029, at tolerances 5e-7 and 1e-7."""
+    eta = 0.6029140134513106
+    mu = np.array([0.7980292776607995, 0.8940269, 0.3063898])
+    alpha = np.array([0.0258128653023635, 0.0128079, 0.0051917])
+    refs = [ref.albedo(float(m), float(a), "ggx", "correlated", ("dielectric", eta)) for m, a in zip(mu, alpha)]
+    for tol in (5e-7, 1e-7):
+        v, e = integrate_texels("reflect", mu, alpha, dist=0, shadowing=1, ftype=FTYPES["dielectric"], fp0=eta,
+                                tol=tol)
+        for j, r in enumerate(refs):
+            err = abs(v[j, 0] - r.value)
+            assert err <= TOL and err <= e[j, 0] + r.err, (tol, mu[j], alpha[j], v[j, 0], r.value, e[j, 0])
+
+
+def test_honest_in_the_tail_of_a_near_mirror_distribution():
+    """Texels whose error lives in D's tail (theta_m >> alpha, packed near v = 1): a dielectric
+    of eta 0.354 (R was off by 1.18e-8 reporting 9.2e-9 at tolerances 1e-6 .. 1e-7 before
+    issue 14) and a Beckmann albedo whose deficit is 1.65e-9 (off by 5e-10 reporting 4.8e-10)."""
+    mu, a, eta = 0.3437501488624374, 0.0018828431288262022, 0.3538488819374601
+    rr, rt = ref.dielectric(mu, a, eta, "ggx", "correlated")
+    for tol in (1e-6, 5e-7, 1e-7):
+        v, e = integrate_texels("dielectric", np.array([mu]), np.array([a]), np.array([eta]), dist=0, shadowing=1,
+                                tol=tol)
+        assert abs(v[0, 0] - rr.value) <= e[0, 0] + rr.err, (tol, v[0, 0], rr.value, e[0, 0])
+        assert abs(v[0, 1] - rt.value) <= e[0, 1] + rt.err, (tol, v[0, 1], rt.value, e[0, 1])
+    mu, a = 0.1855680400764734, 0.021181566150741234
+    r = ref.albedo(mu, a, "beckmann", "correlated")
+    for tol in (1e-3, 5e-7, 1e-7):
+        v, e = integrate_texels("reflect", np.array([mu]), np.array([a]), dist=1, shadowing=1, tol=tol)
+        assert abs(v[0, 0] - r.value) <= e[0, 0] + r.err, (tol, v[0, 0], r.value, e[0, 0])
+
+
 # ----------------------------------------------------------------------------------------
 # tabulate(): the mu-averages are computed there, not in integrate_texels
 # ----------------------------------------------------------------------------------------

@@ -16,8 +16,11 @@ from bsdf_tab.integrate.quadrature import (
     WG7_D,
     WGK_D,
     XGK_D,
+    decay_ratio,
     gk_error,
+    gk_error_decay,
     make_global_bisection,
+    vec16d,
 )
 
 
@@ -120,3 +123,100 @@ def test_global_bisection_meets_the_tolerance_honestly(tol):
             assert err[0] > tol  # the square root is not resolved in 3 rules, and says so
     # the polynomial channel is exact from the first rule: its error is the rounding floor
     assert np.all(np.abs(out[:, 1] - 1.0 / 3.0) < 1e-15)
+
+
+# ------------------------------------------------------------------ the decay-ratio estimate (issue 14)
+
+
+@wp.kernel
+def _decay_kernel(fv: wp.array2d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    t = wp.tid()
+    f = vec16d()
+    for j in range(15):
+        f[j] = fv[t, j]
+    out[t] = decay_ratio(f)
+
+
+def _np_decay_ratio(f):
+    # independent: least-squares Legendre fit of degree 14 through the 15 nodes (= interpolation),
+    # coefficients turned orthonormal by sqrt((2k + 1) / 2)
+    c = np.polynomial.legendre.legfit(GK_X, f, 14) / np.sqrt((2.0 * np.arange(15) + 1.0) / 2.0)
+    a, b, cc = abs(c[13]) + abs(c[14]), abs(c[11]) + abs(c[12]), abs(c[9]) + abs(c[10])
+    return max(a / b, b / cc)
+
+
+def test_decay_ratio_reads_the_resolution_of_the_nodes():
+    x = GK_X
+    funcs = {
+        "exp 2x": np.exp(2.0 * x),  # entire: fast decay
+        "cos 3x": np.cos(3.0 * x),  # even: odd coefficients vanish, pairs still decay
+        "pole near [-1, 1]": 1.0 / (1.0 + 25.0 * x**2),  # Runge: slow decay
+        "sqrt endpoint": np.sqrt(x + 1.0),  # algebraic endpoint: not resolved
+        "kink": np.abs(x - 0.3),
+    }
+    fv = wp.array(np.array(list(funcs.values())), dtype=wp.float64, device="cpu")
+    out = wp.zeros(len(funcs), dtype=wp.float64, device="cpu")
+    wp.launch(_decay_kernel, dim=len(funcs), inputs=[fv, out], device="cpu")
+    r = dict(zip(funcs, out.numpy()))
+    for name, f in funcs.items():
+        # the top coefficients of the fast decays are ~1e-11: a few digits of agreement
+        assert r[name] == pytest.approx(_np_decay_ratio(f), rel=1e-4), name
+    assert r["exp 2x"] < 5e-2 and r["cos 3x"] < 0.1
+    assert r["pole near [-1, 1]"] > 0.5 and r["sqrt endpoint"] > 0.5 and r["kink"] > 0.3
+
+
+@wp.func
+def _rule_decay(p: wp.vec2d, x: wp.float64, a: wp.float64, b: wp.float64):
+    """G7-K15 of (sqrt(t - p[0]), 1 / (1 + 100 (t - 0.3)^2)) over [a, b], decay-ratio estimate."""
+    half = wp.float64(0.5)
+    ctr = half * (a + b)
+    hl = half * (b - a)
+    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    fs = vec16d()
+    gs = vec16d()
+    for j in range(15):
+        jj = j
+        sgn = wp.float64(1.0)
+        if j >= 8:
+            jj = j - 8
+            sgn = wp.float64(-1.0)
+        t = ctr + sgn * hl * XGK_D[jj]
+        d = t - wp.float64(0.3)
+        f = wp.vec2d(wp.sqrt(wp.max(t - p[0], wp.float64(0.0))), wp.float64(1.0) / (wp.float64(1.0) + wp.float64(100.0) * d * d))
+        fs[j] = f[0]
+        gs[j] = f[1]
+        rk += WGK_D[jj] * f
+        rg += WG7_D[jj] * f
+    r = wp.vec2d(decay_ratio(fs), decay_ratio(gs))
+    return rk * hl, gk_error_decay(rk * hl, rg * hl, r, wp.float64(1.0), wp.float64(3.0)), int(1)
+
+
+_bisect_decay = make_global_bisection(_rule_decay)
+
+
+@wp.kernel
+def _bisect_decay_kernel(tol: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
+    t = wp.tid()
+    ends = wp.vec2d(wp.float64(0.0), wp.float64(1.0))
+    total, err, cost, cost_ref = _bisect_decay(wp.vec2d(wp.float64(0.0), wp.float64(0.0)), wp.float64(0.0), ends,
+                                               1, tol[t], 400, int(0))
+    out[t, 0] = total[0]
+    out[t, 1] = total[1]
+    out[t, 2] = err[0]
+    out[t, 3] = err[1]
+
+
+def test_decay_estimate_stays_honest_on_singular_and_peaked_integrands():
+    # int_0^1 sqrt(t) = 2/3 (endpoint singularity), int_0^1 1/(1 + 100 (t - 0.3)^2) =
+    # (atan(7) + atan(3)) / 10 (a peak of width 0.1): every tolerance, true error <= reported
+    tols = np.array([1e-3, 1e-5, 1e-7, 1e-9, 1e-11])
+    exact = np.array([2.0 / 3.0, (math.atan(7.0) + math.atan(3.0)) / 10.0])
+    out = wp.zeros((tols.size, 4), dtype=wp.float64, device="cpu")
+    wp.launch(_bisect_decay_kernel, dim=tols.size, inputs=[wp.array(tols, dtype=wp.float64, device="cpu"), out],
+              device="cpu")
+    out = out.numpy()
+    for k, tol in enumerate(tols):
+        err = np.abs(out[k, :2] - exact)
+        assert np.all(err <= out[k, 2:4]), (tol, err, out[k, 2:4])
+        assert np.all(out[k, 2:4] <= tol), (tol, out[k, 2:4])
