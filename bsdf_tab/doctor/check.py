@@ -26,7 +26,7 @@ from .nd import search_nd
 from .ndcheck import check_nd
 from .report import Report
 from .storage import BITS as _BITS
-from .storage import MU_CLAMPS, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
+from .storage import MU_CLAMPS, drop_guesses, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
 
 __all__ = ["MU_CLAMPS", "check_image", "check_lut", "check_lut_bytes"]
 
@@ -254,6 +254,7 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
                      "sampling the NDF rather than the visible normals gives")
         else:
             f.append(f"Monte Carlo noise: texel-to-texel residual rms {rms:.2g}, even over the table")
+    drop_guesses(f)
 
 
 def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None, heatmap=None,

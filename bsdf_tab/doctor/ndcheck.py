@@ -17,7 +17,7 @@ from .fit import NODE_FORMULA, NODE_TYPES, even_indices
 from .glass import AVG_RULE, Z_MAX, albedo_avg_exact_at, glass_avg_exact_at, glass_exact_at
 from .nd import KINDS_ND, NDHypothesis, predict, search_nd, to_file_order
 from .readers import LutImage
-from .storage import BITS, MU_CLAMPS, high_frequency, quantization, storage_rms
+from .storage import BITS, MU_CLAMPS, drop_guesses, high_frequency, quantization, storage_rms
 
 __all__ = ["MAX_CHECK", "NDReport", "check_nd"]
 
@@ -268,6 +268,7 @@ def check_nd(kind: str, img: LutImage, data: np.ndarray, *, expect_axes=None, he
     for ax, i in odd:
         report.findings.append("an end slice follows a convention of its own: " + _slice_text(best, ax, i, shape, idx, data, resid)
                                + f"; elsewhere max {report.interior['max_error']:.2g}, mean {report.interior['mean_error']:.2g}")
+    drop_guesses(report.findings)
     if heatmap is not None:
         report.write_heatmap(heatmap)
     return report

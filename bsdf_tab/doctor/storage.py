@@ -9,7 +9,7 @@ import numpy as np
 
 from .readers import LutImage
 
-__all__ = ["BITS", "MU_CLAMPS", "high_frequency", "quantization", "storage_rms"]
+__all__ = ["BITS", "MU_CLAMPS", "NO_FIT", "drop_guesses", "high_frequency", "quantization", "storage_rms"]
 
 #: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
 MU_CLAMPS = {1e-4: "1e-4 (the clamp of Cycles and EEVEE)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
@@ -55,3 +55,20 @@ def high_frequency(r: np.ndarray) -> np.ndarray:
             sl[ax] = slice(d, d + r.shape[ax])
             acc = acc + pad[tuple(sl)]
     return r - acc / (2 * r.ndim)
+
+
+#: the best mean screening error above which no candidate is taken to fit
+NO_FIT = 0.02
+_KEPT_WITHOUT_FIT = ("no candidate fits well", "stored at", "stored as float16", "left out: ")
+
+
+def drop_guesses(findings: list) -> None:
+    """When no candidate fits, keep only what does not depend on the fit (the storage, NaN texels):
+    flips, shifts, encodings and noise of a table of another kind would be guesses."""
+    if not any(x.startswith("no candidate fits well") for x in findings):
+        return
+    kept = [x for x in findings if x.startswith(_KEPT_WITHOUT_FIT) or "NaN" in x]
+    if len(kept) < len(findings):
+        kept.append(f"left out: {len(findings) - len(kept)} findings about axes, encoding and noise, which "
+                    "would describe the closest candidate rather than this table")
+    findings[:] = kept

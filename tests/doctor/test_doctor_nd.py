@@ -256,3 +256,14 @@ def test_our_glass_average_transposed_and_flipped():
     assert rep["eta"].startswith("eta > 1")
     assert _axes(rep) == [("roughness", "linear", "endpoints", True), ("ior", "z", "endpoints", False)]
     assert _has(rep, "Y flipped") and rep["max_error"] < 2e-4
+
+
+@pytest.mark.parametrize("shape", [(24, 24), (8, 8, 8)])
+def test_a_table_of_no_known_kind_gets_no_guessed_findings(shape):
+    """A smooth table that is no albedo, split-sum or glass table: the report says so and does not
+    describe the closest candidate's flips, shifts, encoding or noise as the file's."""
+    grids = np.meshgrid(*[np.linspace(0, 1, n) for n in shape], indexing="ij")
+    data = 0.5 + 0.4 * np.sin(3 * grids[0] + 1) * np.cos(5 * grids[-1])
+    r = _check(data)
+    assert r["findings"][0].startswith("no candidate fits well")
+    assert all(f.startswith(("no candidate fits well", "left out: ")) for f in r["findings"])
