@@ -168,7 +168,9 @@ def eevee_split_sum_rows(path: Path, first_row: int) -> tuple[np.ndarray, np.nda
     body = text[m.start():]
     body = body[:body.index("};") + 2]
     count = len(re.findall(r"[-+]?\d+\.\d+", body[body.index("="):]))
-    per_row = 64 * (3 if "[64][64][3]" in body[:80] else 2)
+    vec = re.search(r"VecBase<\s*float\s*,\s*(\d)\s*>\s*$", text[max(m.start() - 40, 0):m.start()])
+    trailing = re.match(r"\w+\s*\[64\]\s*\[64\]\s*\[(\d)\]", body)
+    per_row = 64 * int(vec.group(1) if vec else trailing.group(1) if trailing else 2)  # channels per texel
     rows = count // per_row
     data = read_array_text(body, (rows, 64, per_row // 64)).data[..., :2]
     return data, np.arange(first_row, first_row + rows)
