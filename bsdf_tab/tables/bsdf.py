@@ -42,7 +42,10 @@ the cancellation near total internal reflection. The last term is the subnormal 
 result below 2^-1022 is rounded to 2^-1075 absolute, not eps relative; q = 4 |i.n||o.n| (or
 den^2) is the last division and ``gain`` the growth of a subnormal exp(-tan^2/alpha^2) through
 Beckmann's 1/(pi alpha^2 cos^4) and the other factors. The floor also makes a texel that
-underflowed to 0 inside the support honest. Checked against a 40-digit evaluation in
+underflowed to 0 inside the support honest. In ``half_diff``, a refraction test that calls
+total internal reflection within the rounding of k2 = 1 - (1 - cos^2 theta_d) / eta^2 (~eps /
+eta^2) refracts at the largest k2 that rounding allows, and that f_t is added to its bound (the
+exact value lies between 0 and it). Checked against a 40-digit evaluation in
 ``tests/tables/test_bsdf_honesty.py``.
 Stored EXR channels are float32 (relative rounding 2^-24 on top).
 
@@ -285,7 +288,8 @@ def _underflow_gain(alpha: wp.float64, ch: wp.float64, rest: wp.float64):
 
 @wp.func
 def _directions(param: wp.int32, a0: wp.float64, a1: wp.float64, a2: wp.float64, eta: wp.float64):
-    """(w_i, w_o reflected, w_o transmitted, ok_t) of one grid point (see the module docstring)."""
+    """(w_i, w_o reflected, w_o transmitted, ok_t) of one grid point (see the module docstring);
+    ok_t: 0 no refraction, 1 refracted, 2 refracted only within the rounding of the test."""
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     c2 = wp.cos(a2)
@@ -303,8 +307,18 @@ def _directions(param: wp.int32, a0: wp.float64, a1: wp.float64, a2: wp.float64,
         # refraction through h (Walter eq. 40), eta = eta_o / eta_i
         k2 = one - (one - cd * cd) / (eta * eta)
         wt = wp.vec3d(zero, zero, zero)
-        ok = k2 >= zero
-        if ok:
+        ok = int(0)
+        if k2 >= zero:
+            ok = int(1)
+        # cd is a rounded cosine and 1 - cd^2 loses ~eps / sin^2: a computed total internal
+        # reflection within d2 of k2 = 0 may refract exactly, with some k2 in [0, d2]. Refract
+        # at k2 = d2 (ok = 2): f_t there bounds the exact value (it grows from 0 with k2), and
+        # the kernel adds it to the error instead of a bare 0 with bound 0.
+        d2 = wp.float64(8.0 * _EPS) * (one + one / (eta * eta))
+        if ok == 0 and k2 > -d2:
+            ok = int(2)
+            k2 = d2
+        if ok > 0:
             wt = (cd / eta - wp.sqrt(k2)) * h - wi / eta
         return wi, wr, wt, ok
     si = wp.sin(a0)
@@ -314,7 +328,7 @@ def _directions(param: wp.int32, a0: wp.float64, a1: wp.float64, a2: wp.float64,
     wi = wp.vec3d(si, zero, ci)
     wr = wp.vec3d(so * c2, so * s2, co)
     wt = wp.vec3d(so * c2, so * s2, -co)
-    return wi, wr, wt, True
+    return wi, wr, wt, int(1)
 
 
 @wp.kernel
@@ -371,7 +385,7 @@ def _bsdf_block_kernel(
 
     ft = zero
     et = zero
-    if ftype == FRESNEL_DIELECTRIC and ok_t:
+    if ftype == FRESNEL_DIELECTRIC and ok_t > 0:
         ft = btdf(wi, wt, alpha, dist, shadowing, p0)
         zo = wt[2]
         v = wi + p0 * wt
@@ -398,6 +412,9 @@ def _bsdf_block_kernel(
                 kappa = dlnD_dcos(h[2], alpha, dist) + wp.float64(2.0)
                 et += wp.abs(ft) * eps * (wp.float64(EPS_REL) + amp * kappa)
                 et += tiny * (wp.float64(2.0) + one / (den * den) + gain)
+        if ok_t == 2:
+            # refraction only within rounding: the exact value lies in [0, ft] (see _directions)
+            et += wp.abs(ft)
     out[0, k] = fr
     out[1, k] = ft
     out[2, k] = er

@@ -238,3 +238,15 @@ def test_subnormal_values_are_honest():
     axes = {"theta_h": np.linspace(0.9, 0.97, 15).tolist(), "theta_d": [0.0, 0.5, 1.2], "phi_d": [0.0, 1.0]}
     st = check_honest("beckmann", "correlated", {"type": "one"}, 0.05, axes, param="half_diff")
     assert st["f_r"]["nonzero"] > 0
+
+
+@pytest.mark.parametrize("eta", [0.07615359846767189, 0.18680747247093243, 0.5, 0.7])
+def test_refraction_test_rounding_at_the_critical_angle_is_honest(eta):
+    """half_diff: cos theta_d is a rounded cosine, and k2 = 1 - (1 - cd^2) / eta^2 loses
+    ~eps / eta^2 in 1 - cd^2, so within a few ulps of theta_d = asin(eta) the float64 test can
+    call total internal reflection where the exact k2 >= 0 (at eta 0.0762: k2 = -1.2e-14
+    computed, +2.1e-15 exact): f_t is then O(sqrt(eps)) T, not 0, and its bound must say so."""
+    tc = math.asin(eta)
+    axes = {"theta_h": [0.05, 0.3], "theta_d": [tc + k * math.ulp(tc) for k in range(-6, 7)],
+            "phi_d": [0.0, 1.0, 2.0, 3.0]}
+    check_honest("ggx", "correlated", {"type": "dielectric", "eta": eta}, 0.3, axes, param="half_diff")
