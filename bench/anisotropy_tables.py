@@ -11,7 +11,8 @@ For each domain (mu in [mu_min, 1], roughness in [r_min, 1], phi_v in [0, pi/2],
   direction changes the projected width sqrt(alpha_x^2 cos^2 + alpha_y^2 sin^2) within
   ~alpha_y / alpha_x radians: an explicit ``phi_v`` value list; a shader looks it up at
   s = 1 - sqrt(1 - 2 phi_v / pi));
-- roughness: linear (alpha = r^2);
+- roughness: linear (alpha = r^2), or ``--r-spacing square`` (uniform in sqrt(r): the spec's
+  ``square`` spacing, denser at the roughness floor);
 - anisotropy: nodes uniform in t = log10(alpha_x / alpha_y) = -log10(1 - 0.9 a), i.e.
   a_k = (1 - 10^(-t_k)) / 0.9 (an explicit ``anisotropy`` value list in a spec; a shader looks it up
   at t = -log10(1 - 0.9 a)): the aspect ratio is hyperbolic in a, so linear nodes crowd the wrong end.
@@ -70,13 +71,17 @@ def s_of_phi(phi):
     return 1.0 - np.sqrt(np.clip(1.0 - np.asarray(phi, dtype=np.float64) / (0.5 * math.pi), 0.0, 1.0))  # phi <= pi/2
 
 
-def coords(mu_min: float, r_min: float, n, t_max: float = 1.0):
-    """Master-grid nodes in lookup coordinates (sqrt(mu), s, r, t) and in table values."""
+R_SPACING = {"linear": (lambda r: r, lambda q: q), "square": (np.sqrt, np.square)}  # (coordinate, back)
+
+
+def coords(mu_min: float, r_min: float, n, t_max: float = 1.0, r_spacing: str = "linear"):
+    """Master-grid nodes in lookup coordinates (sqrt(mu), s, q(r), t) and in table values."""
+    fwd, back = R_SPACING[r_spacing]
     w = np.linspace(math.sqrt(mu_min), 1.0, n[0])
     s = np.linspace(0.0, 1.0, n[1])
-    r = np.linspace(r_min, 1.0, n[2])
+    q = np.linspace(float(fwd(r_min)), 1.0, n[2])
     t = np.linspace(0.0, t_max, n[3])
-    return (w, s, r, t), (w * w, phi_of_s(s), r, aniso_of_t(t))
+    return (w, s, q, t), (w * w, phi_of_s(s), back(q), aniso_of_t(t))
 
 
 def evaluate(mu, phi, r, a):
@@ -117,10 +122,10 @@ def test_points(mu_min: float, r_min: float, n_random: int, n_edge: int, seed: i
     return np.vstack(pts)
 
 
-def master_grid(mu_min: float, r_min: float, n, quick: bool, t_max: float = 1.0):
-    tag = f"{mu_min:g}_{r_min:g}_{t_max:.4g}_{'x'.join(map(str, n))}_phi2"
+def master_grid(mu_min: float, r_min: float, n, quick: bool, t_max: float = 1.0, r_spacing: str = "linear"):
+    tag = f"{mu_min:g}_{r_min:g}_{t_max:.4g}_{'x'.join(map(str, n))}_phi2" + ("" if r_spacing == "linear" else f"_r{r_spacing}")
     path = OUT / f"anisotropy_grid_{tag}.npz"
-    cx, vx = coords(mu_min, r_min, n, t_max)
+    cx, vx = coords(mu_min, r_min, n, t_max, r_spacing)
     if path.exists() and not quick:
         d = np.load(path)
         return cx, d["E"], d["E_err"], d["E_iso"], 0.0
@@ -137,13 +142,14 @@ def master_grid(mu_min: float, r_min: float, n, quick: bool, t_max: float = 1.0)
 
 
 def study(mu_min: float, r_min: float, n, n_random: int, n_edge: int, tol: float, quick: bool,
-          a_max: float = 1.0) -> dict:
+          a_max: float = 1.0, r_spacing: str = "linear") -> dict:
     t_max = float(t_of_aniso(a_max))
-    cx, G, G_err, G_iso, seconds = master_grid(mu_min, r_min, n, quick, t_max)
+    cx, G, G_err, G_iso, seconds = master_grid(mu_min, r_min, n, quick, t_max, r_spacing)
     raw = test_points(mu_min, r_min, n_random, n_edge, t_max=t_max)
     truth, truth_err = evaluate(raw[:, 0] ** 2, raw[:, 1], raw[:, 2], aniso_of_t(raw[:, 3]))
     pts = raw.copy()
     pts[:, 1] = s_of_phi(raw[:, 1])  # lookup coordinate of phi_v
+    pts[:, 2] = R_SPACING[r_spacing][0](raw[:, 2])  # and of roughness
     ratio = G / G_iso[:, None, :, None]  # E_iso > 0 on the domain (E_iso >= 1 - ln 2 > 0.3 for alpha <= 1)
     sizes = [[s for s in (2, 3, 5, 9, 17, 33) if s <= nk and (nk - 1) % (s - 1) == 0] for nk in n]
     results = []
@@ -167,7 +173,7 @@ def study(mu_min: float, r_min: float, n, n_random: int, n_edge: int, tol: float
         ok = sorted((r for r in results if r["quantity"] == quantity and r["max_err"] < tol), key=lambda r: r["texels"])
         best[quantity] = ok[0] if ok else None
     finest = [r for r in results if r["size"] == list(n)]
-    return {"mu_min": mu_min, "r_min": r_min, "a_max": a_max, "master": list(n), "master_seconds": seconds,
+    return {"mu_min": mu_min, "r_min": r_min, "a_max": a_max, "r_spacing": r_spacing, "master": list(n), "master_seconds": seconds,
             "master_max_E_err": float(G_err.max()), "points": int(len(pts)), "points_max_E_err": float(truth_err.max()),
             "best": best, "finest": finest, "tables": results}
 
@@ -179,14 +185,17 @@ def main(argv=None) -> int:
     ap.add_argument("--tol", type=float, default=1e-3, help="max lookup error (default 1e-3)")
     ap.add_argument("--quick", action="store_true", help="a coarse master grid (CI smoke run)")
     ap.add_argument("--out", default="anisotropy_tables.json", help="JSON file name under bench/out/")
+    ap.add_argument("--master", default=None, metavar="NMU,NPHI,NR,NT", help="master grid sizes (2^k + 1 each)")
+    ap.add_argument("--r-spacing", default="linear", choices=tuple(R_SPACING), help="roughness nodes (square: uniform in sqrt(r))")
     args = ap.parse_args(argv)
     quiet_warp()
     domains = [tuple(float(x) for x in d.split(",")) for d in (args.domain or ["0.1,0.2", "0.05,0.1", "0.1,0.2,0.8"])]
-    n = QUICK if args.quick else MASTER
+    n = QUICK if args.quick else (tuple(int(x) for x in args.master.split(",")) if args.master else MASTER)
     out = []
     for dom in domains:
         mu_min, r_min, a_max = (*dom, 1.0)[:3]
-        res = study(mu_min, r_min, n, 60 if args.quick else 1200, 20 if args.quick else 200, args.tol, args.quick, a_max)
+        res = study(mu_min, r_min, n, 60 if args.quick else 1200, 20 if args.quick else 200, args.tol, args.quick, a_max,
+                    args.r_spacing)
         out.append(res)
         print(f"domain mu >= {mu_min:g}, roughness >= {r_min:g}, a <= {a_max:g}: master {n} ({res['master_seconds']:.0f} s), "
               f"max E_err {res['master_max_E_err']:.1e} (points {res['points_max_E_err']:.1e})")
