@@ -117,6 +117,9 @@ def _peer_channels(preset: Preset, axes: dict, source: dict, spec_axis_names: li
         v, e = np.transpose(v, perm), np.transpose(e, perm)
         if out.complement:
             v = 1.0 - v
+        if out.scale is not None:
+            s = np.asarray(out.scale(axes), dtype=np.float64)
+            v, e = v * s, e * np.abs(s)
         if preset.mirror_rule:
             rough = list(axes).index("roughness")
             v, e = _mirror_rule(v, e, np.asarray(axes["roughness"]) ** 2, rough)

@@ -14,13 +14,14 @@ G1(V) G1(L).
   mean |diff| 3e-5 (docs/presets.md), and correlated shadowing would be off by 0.36.
 - ``btdf_ggx[16][64][64][1]`` [z = roughness][y][x]: IOR > 1 with x = sqrt((ior - 1)/(ior + 1))
   (f = clamp(x^2, 1e-4, 0.9999), ior = (1 + f)/(1 - f)); EEVEE stores the Schlick factor
-  int (1 - (1 - |h.v|)^5) btdf cos, used as transmittance = (1 - F0) factor. Our table kinds
-  have the exact dielectric Fresnel only, so this preset stores the exact transmittance T
-  itself: it does NOT drop into EEVEE's shader, which multiplies by (1 - F0) again (EEVEE's
-  form would be T / (1 - F0), F0 = x^4; it needs a per-ior scale in the preset recipe, which
-  ``bsdf_tab.presets.build`` does not have yet). EEVEE's last IOR node is x = 1: f = 0.9999,
-  ior = 19999, beyond the spec's eta domain (<= 100); it is computed at ior 100 (T up to 0.039
-  there, where T at ior 19999 is about 2e-4).
+  int (1 - (1 - |h.v|)^5) btdf cos, used as transmittance = (1 - F0) factor, F0 = f^2 =
+  ((ior - 1)/(ior + 1))^2 (the shader's ``bsdf_lut``). This preset stores T / (1 - F0) with the
+  exact transmittance T (exact unpolarized Fresnel), so that EEVEE's shader, multiplying by
+  1 - F0, gets the exact T: it drops in, and is more accurate than EEVEE's Schlick factor.
+  EEVEE's last IOR node is x = 1: f = 0.9999, ior = 19999, beyond the spec's eta domain
+  (<= 100); it is computed at ior 100. The stored ratio T / (1 - F0) varies slowly at large ior
+  (both T and 1 - F0 fall like 4/ior), so the shader's (1 - F0(19999)) x ratio(100) is close to
+  T at 19999.
 
 Both are uploaded into EEVEE's utility texture array (64 x 64 layers, RGBA16F).
 """
@@ -36,6 +37,13 @@ __all__ = ["EEVEE_IOR_CAP", "PRESET_LIST", "eevee_btdf_ior_axis", "eevee_mu_axis
 
 #: The spec's eta domain ends at 100; EEVEE's last IOR node (x = 1: ior 19999) is computed there.
 EEVEE_IOR_CAP = 100.0
+
+
+def _one_over_one_minus_f0(axes: dict) -> np.ndarray:
+    """1 / (1 - F0(ior)) on the [roughness, mu, ior] layout: EEVEE multiplies the texel by 1 - F0."""
+    ior = np.asarray(axes["ior"], dtype=np.float64)
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2  # ior >= 1.0002 here: 1 - f0 >= 0.039 (ior <= 100)
+    return (1.0 / (1.0 - f0))[None, None, :]
 
 
 def eevee_mu_axis(n: int = 64) -> np.ndarray:
@@ -79,15 +87,17 @@ PRESET_LIST = [
         axes=lambda: {"roughness": unit_endpoints(16), "mu": eevee_mu_axis(64), "ior": eevee_btdf_ior_axis(64)},
         table="dielectric", shadowing="separable",
         spec_axes={"mu": "mu", "roughness": "roughness", "eta": "ior"},
-        outputs=(Output("T", ("T",)),),
+        outputs=(Output("T", ("T",), scale=_one_over_one_minus_f0),),
         conventions={
             **_COMMON,
-            "value": "T: transmitted energy (exact unpolarized Fresnel, energy form), eta = ior > 1. EEVEE stores "
-            "int (1 - (1 - |h.v|)^5) btdf cos and multiplies by (1 - F0): with this table use T directly",
+            "value": "T / (1 - F0), F0 = ((ior - 1)/(ior + 1))^2, T the transmitted energy (exact unpolarized "
+            "Fresnel, energy form), eta = ior > 1: EEVEE's shader multiplies the texel by (1 - F0) and gets T "
+            "(EEVEE's own table holds int (1 - (1 - |h.v|)^5) btdf cos, Schlick's factor)",
             "ior_axis": "x_i = i/63, f = clamp(x^2, 1e-4, 0.9999), ior = (1 + f)/(1 - f) (1.0002 .. 19999); "
             "node 63 computed at ior = 100, the end of the spec's eta domain",
             "layout": "[z][y][x] = [roughness (16 layers, r = k/15), mu (as the BRDF LUT), ior]",
-            "not_reproduced": "EEVEE's Schlick transmission factor (exact Fresnel here); its 512^2 samples; the "
+            "not_reproduced": "EEVEE's Schlick transmission factor (exact Fresnel here, divided by 1 - F0 so the "
+            "shader's product is exact); its 512^2 samples; the "
             "bsdf_ggx table for IOR < 1",
         },
         file_format="ktx2", storage="float16",

@@ -20,11 +20,18 @@ __all__ = ["Output", "Preset"]
 
 @dataclass(frozen=True)
 class Output:
-    """A peer channel: ``terms`` summed (source channels), or ``1 -`` that sum."""
+    """A peer channel: ``terms`` summed (source channels), or ``1 -`` that sum, times ``scale``.
+
+    ``scale(axes) -> array``, when given, multiplies the channel and its error after the
+    channel is in the peer's axis order: ``axes`` is the output's (possibly selected) axes in
+    that order, and the array must broadcast to the channel's shape (EEVEE's BTDF texture holds
+    T / (1 - F0(ior)), which its shader multiplies by 1 - F0).
+    """
 
     name: str
     terms: tuple[str, ...]
     complement: bool = False
+    scale: Callable[[dict], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)

@@ -96,13 +96,19 @@ def test_eevee_split_sum_is_separable_a_b_on_its_sqrt_axis():
         assert ch(t, "B")[k, 0] == pytest.approx(B.value, abs=TOL)
 
 
-def test_eevee_btdf_is_exact_transmission_layers_first():
+def test_eevee_btdf_times_one_minus_f0_is_exact_transmission_layers_first():
+    # EEVEE's shader (bsdf_lut): transmittance = (1 - F0) * texel, F0 = ((ior - 1)/(ior + 1))^2
     t = build_preset("eevee-btdf", select={"roughness": [10], "mu": [5], "ior": [20, 63]})
     assert ch(t, "T").shape == (1, 1, 2)  # [roughness, mu, ior]
     r, nv = 10 / 15, 1 - (5 / 63) ** 2
     f = (20 / 63) ** 2
-    _, T = ref.dielectric(nv, r * r, (1 + f) / (1 - f), "ggx", "separable")
-    assert ch(t, "T")[0, 0, 0] == pytest.approx(T.value, abs=2 * TOL)
+    ior = (1 + f) / (1 - f)
+    _, T = ref.dielectric(nv, r * r, ior, "ggx", "separable")
+    one_minus_f0 = 1 - ((ior - 1) / (ior + 1)) ** 2
+    assert ch(t, "T")[0, 0, 0] * one_minus_f0 == pytest.approx(T.value, abs=2 * TOL)
+    assert ch(t, "T_err")[0, 0, 0] * one_minus_f0 <= 2 * TOL  # the error channel follows the scale
+    _, T100 = ref.dielectric(nv, r * r, 100.0, "ggx", "separable")
+    assert ch(t, "T")[0, 0, 1] * (1 - (99 / 101) ** 2) == pytest.approx(T100.value, abs=2 * TOL)
     assert t.axes["ior"][1] == 100.0 and "ior = 100" in t.meta["preset"]["conventions"]["ior_axis"]
 
 
