@@ -41,9 +41,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--array-values", default="float", metavar="|".join(ARRAY_VALUES),
                         help="how an array file's numbers are read (float; half: IEEE binary16 bit patterns; "
                              "unorm8, unorm16: integers / 255, / 65535)")
-    parser.add_argument("--axes", metavar="ROWS,COLUMNS",
-                        help="the axes you believe the file has, rows first (e.g. mu,roughness): "
+    parser.add_argument("--axes", metavar="NAME[,NAME[,NAME]]",
+                        help="the axes you believe the file has, its first axis first (mu,roughness; "
+                             "ior,mu,roughness for a 3-D table; roughness for a 1-D average): "
                              "the report says if the data disagrees")
+    parser.add_argument("--array-name", metavar="NAME",
+                        help="in a C/C++/JS file that initializes several arrays, the one to read "
+                             "(e.g. brdf_ggx in eevee_lut.cc)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,10 +62,11 @@ def run(args: argparse.Namespace) -> int:
     expect = None
     if args.axes:
         expect = [a.strip() for a in args.axes.split(",")]
-        if len(expect) != 2 or not all(expect):
-            raise CliError(f"--axes: give two names, rows first (mu,roughness), got {args.axes!r}")
+        if not 1 <= len(expect) <= 3 or not all(expect):
+            raise CliError(f"--axes: give 1 to 3 names, the file's first axis first (mu,roughness), "
+                           f"got {args.axes!r}")
     report = check_lut(path, shape=_shape(args.shape), array_values=args.array_values, expect_axes=expect,
-                       heatmap=args.heatmap)
+                       heatmap=args.heatmap, array_name=args.array_name)
     if args.json:
         print(json.dumps(report.to_dict(), allow_nan=False))
     else:

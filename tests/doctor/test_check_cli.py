@@ -51,14 +51,36 @@ def test_text_report_and_expected_axes(ours, tmp_path, capsys):
     (["{arr}", "--shape", "3,y"], "--shape: give integers"),
     (["{arr}", "--shape", "2,4", "--array-values", "int"], "array_values: must be one of"),
     (["{arr}", "--shape", "64,64"], "shape: the array file holds"),
-    (["{npy}", "--axes", "mu"], "--axes: give two names"),
+    (["{npy}", "--axes", "mu,roughness,ior,x"], "--axes: give 1 to 3 names"),
+    (["{npy}", "--axes", "mu,,roughness"], "--axes: give 1 to 3 names"),
+    (["{ramp}", "--axes", "mu"], "axes"),  # one name for a 2-D file: the doctor names the mismatch
+    (["{arr2}", "--shape", "2,2", "--array-name", "nope"], "nope"),
 ])
 def test_errors_are_one_line_exit_2(tmp_path, capsys, argv, message):
     arr = tmp_path / "lut.h"
     arr.write_text("static const float lut[2][4] = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f};\n")
     npy = tmp_path / "lut.npy"
     np.save(npy, np.ones((4, 4)))
-    argv = [a.format(arr=arr, npy=npy) for a in argv]
+    arr2 = tmp_path / "two.h"
+    arr2.write_text("const float a[2][2] = {1, 2, 3, 4};\nconst float b[2][2] = {5, 6, 7, 8};\n")
+    ramp = tmp_path / "ramp.npy"
+    np.save(ramp, np.linspace(0.0, 1.0, 64).reshape(8, 8))
+    argv = [a.format(arr=arr, npy=npy, arr2=arr2, ramp=ramp) for a in argv]
     code, out, err = run(capsys, "check", *argv)
     assert code == 2 and out == ""
     assert len(err.strip().splitlines()) == 1 and message in err and "Traceback" not in err
+
+
+def test_array_name_picks_one_of_several_arrays(tmp_path, capsys):
+    """Two arrays of different sizes in one file: --array-name reads the named one."""
+    ramp = np.linspace(0.0, 1.0, 8 * 8).reshape(8, 8) ** 2
+    body = ", ".join(f"{v:.6f}" for v in ramp.ravel())
+    other = ", ".join(f"{v:.3f}" for v in np.linspace(0, 1, 16 * 16))
+    src = tmp_path / "two.cc"
+    src.write_text(f"const float big[16][16] = {{{other}}};\nconst float ramp[8][8] = {{{body}}};\n")
+    code, out, err = run(capsys, "check", str(src), "--shape", "8,8", "--array-name", "ramp", "--json")
+    assert code == 0, err
+    code2, out2, err2 = run(capsys, "check", str(src), "--shape", "8,8", "--array-name", "big", "--json")
+    assert code2 == 0, err2  # the last 64 numbers of the 16 x 16 array (a partial read, as for rows)
+    # a squared ramp and the tail of a linear ramp are different data: different fits
+    assert json.loads(out)["max_error"] != json.loads(out2)["max_error"]
