@@ -26,10 +26,14 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-try:  # SciPy is optional at run time: math.erfc elementwise otherwise
-    from scipy.special import erfc as _erfc
-except ImportError:  # pragma: no cover - exercised only without SciPy
-    _erfc = np.frompyfunc(math.erfc, 1, 1)
+def _erfc(x):
+    """erfc elementwise: SciPy's when installed (imported here, not at start-up: it costs every
+    ``bsdf-tab`` command about a second), else math.erfc per element."""
+    try:
+        from scipy.special import erfc
+    except ImportError:  # SciPy is optional at run time
+        return np.frompyfunc(math.erfc, 1, 1)(x)
+    return erfc(x)
 
 __all__ = ["ALPHA_FLOOR", "DISTRIBUTIONS", "gauss_legendre", "lambda_cos", "ndf", "lobe_nodes", "lobe_value", "view"]
 
