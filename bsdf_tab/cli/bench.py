@@ -27,6 +27,8 @@ BENCHMARKS = {
     "compare_peers": ("compare_peers.py", "the engine presets against the tables the engines ship"),
     "ltc": ("ltc.py", "LTC fit side by side with the shipped table"),
     "cluster": ("cluster.py", "in-process against a local Dask cluster: overhead, per-task cost, bytes moved"),
+    "core": ("core.py", "the core tables: times, integrand evaluations per texel and where they go"),
+    "versions": ("versions.py", "two checkouts interleaved: the core tables and the example scene plan"),
 }
 
 HELP = "run a benchmark from the source checkout (" + ", ".join(BENCHMARKS) + ")"
