@@ -81,8 +81,10 @@ def conventions(nspec: dict) -> dict:
     }
     if nspec["table"].startswith("sheen"):
         conv["distribution"] = "charlie (Estevez and Kulla 2017, Production Friendly Microfacet Sheen BRDF)"
-        conv["shadowing"] = nspec.get("parametrization")
-        conv["shadowing_definition"] = _SHEEN_SHADOWING.get(nspec.get("parametrization"), nspec.get("parametrization"))
+        conv["shadowing"] = nspec.get("sheen_shadowing")
+        conv["shadowing_definition"] = _SHEEN_SHADOWING.get(nspec.get("sheen_shadowing"), nspec.get("sheen_shadowing"))
+    if nspec["table"] == "ltc":
+        conv["amplitude"] = nspec.get("amplitude")
     if nspec["table"] == "albedo_aniso":
         conv["anisotropy"] = ("alpha_x = alpha / sqrt(1 - 0.9 a), alpha_y = alpha sqrt(1 - 0.9 a); phi_v is the view "
                               "azimuth from the tangent")

@@ -27,6 +27,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from bsdf_tab.cost import CostLimitError
 from bsdf_tab.errors import SpecError, TexelLimitError
+from bsdf_tab.spec import KIND_OPTION_KEYS
 
 __all__ = ["ClientGone", "ServiceError", "install_handlers", "query_param_for", "error_body"]
 
@@ -80,6 +81,8 @@ def query_param_for(param: str | None) -> str | None:
         return None
     if parts[0] == "fresnel":
         return "fresnel" if len(parts) == 1 or parts[1] == "type" else f"fresnel_{parts[1]}"
+    if parts[0] in KIND_OPTION_KEYS:  # a kind's own keys (sheen_shadowing=, amplitude=) are query parameters too
+        return parts[0]
     return parts[0] if parts[0] in ("table", "distribution", "shadowing", "method", "tolerance", "effort") else None
 
 

@@ -374,7 +374,9 @@ def test_sheen_shadowing_key_query_catalog_cache_meta(client):
                                                      "axes": {"mu": [0.3, 1.0], "roughness": [0.5]}})
     assert post.status_code == 200 and post.headers["etag"] == etags["ashikhmin"]
     # bad values and the wrong kind: 400 naming the key
-    err(client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing=smith"), 400, "sheen_shadowing")
+    err(client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing=smith"), 400, "sheen_shadowing", "sheen_shadowing")
+    # the output's conventions name the shadowing that was used
+    assert info["conventions"]["shadowing"] == "ashikhmin" and "Neubelt" in info["conventions"]["shadowing_definition"]
     err(client.get(f"/tables/sheen_albedo?{q}&sheen_shadowing=exact&sheen_shadowing=fitted"), 400, "sheen_shadowing")
     err(client.get(f"/tables/sheen_albedo?{q}&parametrization=smith"), 400, "parametrization")
     err(client.get(f"/tables/albedo?{SMALL}&sheen_shadowing=exact"), 400, "sheen_shadowing")
