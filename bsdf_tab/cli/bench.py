@@ -29,6 +29,11 @@ BENCHMARKS = {
     "cluster": ("cluster.py", "in-process against a local Dask cluster: overhead, per-task cost, bytes moved"),
     "core": ("core.py", "the core tables: times, integrand evaluations per texel and where they go"),
     "versions": ("versions.py", "two checkouts interleaved: the core tables and the example scene plan"),
+    "honesty": ("accuracy_honesty.py", "the adaptive method's honesty and evaluations on 1634 reference texels"),
+    "anisotropy": ("anisotropy.py", "the isotropic collapse of anisotropic GGX, and the furnace after it"),
+    "anisotropy_tables": ("anisotropy_tables.py", "the smallest albedo_aniso table under a lookup error"),
+    "sheen_peers": ("sheen_peers.py", "our sheen albedo against MaterialX's and three.js' fits and tables"),
+    "load": ("load.py", "the service's hot path against a minimal app: requests/s and p99"),
 }
 
 HELP = "run a benchmark from the source checkout (" + ", ".join(BENCHMARKS) + ")"
