@@ -82,9 +82,16 @@ KIND_MODE = {
 #: Kinds with host work besides their integrals: (fixed core-seconds, core-seconds per texel)
 #: (measured: ltc 4 x 4 0.40 s, 8 x 8 0.92 s: the L1 fits of the LTC matrices).
 KIND_HOST_SECONDS = {"ltc": (0.15, 0.011),
-                     # measured roughly (2 shared cores, workers=1): a sheen texel 0.015 s, a mu-average
-                     # 60 texels; an anisotropic texel 0.05 s (more at grazing mu)
-                     "sheen_albedo": (0.1, 0.015), "sheen_albedo_avg": (0.1, 0.9), "albedo_aniso": (0.0, 0.05)}
+                     # measured (2 cores, one worker's CPU time): a sheen texel 0.0013 core-s fitted
+                     # (0.007 exact: KIND_OPTION_HOST_SCALE), a sheen mu-average 0.08 per alpha; an
+                     # anisotropic texel 0.010 on the default-range grid 8 x 5 x 8 x 5 after its panel
+                     # fix (were priced 0.015 / 0.9 / 0.05: 5-10x high)
+                     "sheen_albedo": (0.02, 0.0015), "sheen_albedo_avg": (0.02, 0.08), "albedo_aniso": (0.0, 0.012)}
+#: A kind's own spec keys that scale its host cost: kind -> key -> value -> factor (measured:
+#: the exact Smith Lambda of Charlie tabulates the projected area per alpha: ~5x the fitted texel,
+#: ~2x the fitted mu-average).
+KIND_OPTION_HOST_SCALE = {"sheen_albedo": {"sheen_shadowing": {"exact": 5.0}},
+                          "sheen_albedo_avg": {"sheen_shadowing": {"exact": 2.0}}}
 #: Kinds that average over mu (one integration per node of the mu-average's panels).
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
@@ -290,6 +297,9 @@ def estimate(spec: dict | str, *, scale: float = 1.0) -> Cost:
     avg_integrations = points * per_point * refine
     integrations = int(grid + avg_integrations)
     fixed, per_texel = KIND_HOST_SECONDS.get(kind, (0.0, 0.0))
+    for key, choices in KIND_OPTION_HOST_SCALE.get(kind, {}).items():  # a kind's own keys that change its cost
+        factor = choices.get(nspec.get(key), 1.0)
+        fixed, per_texel = fixed * factor, per_texel * factor
     host = fixed + per_texel * texels
     seconds = (grid * per_grid + avg_integrations * per_avg + host) * scale
     bound = (grid * grid_bound + points * cap_per_point * avg_bound + host) * scale
@@ -362,6 +372,11 @@ SWEEP = (
     {"table": "dielectric", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}, "eta": {"size": 4}}, "tolerance": 1e-5},
     {"table": "albedo_avg", "axes": {"alpha": {"size": 4}}},
     {"table": "ltc", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}},
+    {"table": "albedo_aniso", "axes": {"mu": {"size": 3}, "phi_v": {"size": 2}, "alpha": {"size": 3},
+                                       "anisotropy": {"size": 2}}},
+    {"table": "sheen_albedo", "axes": {"mu": {"size": 8}, "alpha": {"size": 8}}},
+    {"table": "sheen_albedo", "sheen_shadowing": "exact", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}},
+    {"table": "sheen_albedo_avg", "axes": {"alpha": {"size": 3}}},
 )
 
 

@@ -34,6 +34,7 @@ import warp as wp
 
 from ..axes import alpha_values
 from ..integrate.quadrature import GK_WG, GK_WK, GK_X
+from ..integrate.runtime import resolve_device, run_chunks
 from ..model.ggx_aniso import aniso_widths, ggx_aniso_lambda_cos
 from ..model.shadowing import SHADOWINGS
 from ._common import Context
@@ -190,12 +191,13 @@ def _graded_half(wi: wp.vec3d, mu: wp.float64, li: wp.float64, ax: wp.float64, a
 
 
 @wp.kernel
-def albedo_aniso_kernel(mus: wp.array(dtype=wp.float64), phis: wp.array(dtype=wp.float64),
+def albedo_aniso_kernel(idx: wp.array(dtype=wp.int32), mus: wp.array(dtype=wp.float64),
+                        phis: wp.array(dtype=wp.float64),
                         axs: wp.array(dtype=wp.float64), ays: wp.array(dtype=wp.float64), shadowing: int,
                         gx: wp.array(dtype=wp.float64), gk: wp.array(dtype=wp.float64),
                         gg: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.vec2d)):
-    """One texel per thread: (E, E_err) of anisotropic GGX at (mu, phi_v, alpha_x, alpha_y)."""
-    t = wp.tid()
+    """One texel per thread (texel ``idx[tid]``): (E, E_err) of anisotropic GGX at (mu, phi_v, alpha_x, alpha_y)."""
+    t = idx[wp.tid()]
     mu = wp.min(wp.max(mus[t], F(0.0)), F(1.0))
     ax = axs[t]
     ay = ays[t]
@@ -228,19 +230,30 @@ def albedo_aniso_kernel(mus: wp.array(dtype=wp.float64), phis: wp.array(dtype=wp
     out[t] = wp.vec2d(total[0], total[1] + _ROUNDING * wp.abs(total[0]))
 
 
-def albedo_aniso_values(mu, phi_v, alpha_x, alpha_y, shadowing: str = "correlated", device=None):
-    """(E, E_err) of anisotropic GGX (F = 1) at broadcast points (mu, phi_v, alpha_x, alpha_y), float64."""
+def albedo_aniso_values(mu, phi_v, alpha_x, alpha_y, shadowing: str = "correlated", device=None, *,
+                        workers: int | None = None, progress=None):
+    """(E, E_err) of anisotropic GGX (F = 1) at broadcast points (mu, phi_v, alpha_x, alpha_y), float64.
+
+    Texels run in chunks over ``workers`` threads (:func:`bsdf_tab.integrate.runtime.run_chunks`:
+    the values do not depend on the chunking); ``progress(done, total)`` after each chunk, and an
+    exception it raises stops the remaining chunks (the service's cancellation).
+    """
     arrs = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (mu, phi_v, alpha_x, alpha_y)))
     shape = arrs[0].shape
     flat = [np.ascontiguousarray(x).ravel() for x in arrs]
     n = flat[0].size
     if n == 0:
         return np.zeros(shape), np.zeros(shape)
+    device = resolve_device(device)
     gkx = [wp.array(np.asarray(x, dtype=np.float64), dtype=wp.float64, device=device) for x in (GK_X, GK_WK, GK_WG)]
+    inputs = [wp.array(x, dtype=wp.float64, device=device) for x in flat]
     out = wp.zeros(n, dtype=wp.vec2d, device=device)
-    wp.launch(albedo_aniso_kernel, dim=n,
-              inputs=[*(wp.array(x, dtype=wp.float64, device=device) for x in flat), int(SHADOWINGS[shadowing]), *gkx],
-              outputs=[out], device=device)
+
+    def launch(idx):
+        wp.launch(albedo_aniso_kernel, dim=idx.shape[0], inputs=[idx, *inputs, int(SHADOWINGS[shadowing]), *gkx],
+                  outputs=[out], device=device)
+
+    run_chunks(n, launch, device, workers=workers, progress=progress)
     res = out.numpy()
     return res[:, 0].reshape(shape), res[:, 1].reshape(shape)
 
@@ -253,8 +266,8 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     M, P, A, N = np.meshgrid(mu, phi, alpha, an, indexing="ij")
     ax, ay = aniso_widths(A, N)
     ctx.expect(M.size)
-    E, err = albedo_aniso_values(M, P, ax, ay, nspec["shadowing"], ctx.device)
-    ctx.reporter()(M.size, M.size)
+    E, err = albedo_aniso_values(M, P, ax, ay, nspec["shadowing"], ctx.device, workers=ctx.workers,
+                                 progress=ctx.reporter())
     return {"E": E, "E_err": err}
 
 

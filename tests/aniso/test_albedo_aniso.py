@@ -176,3 +176,27 @@ def test_model_float32_finite():
         bad = ~cols
         assert (bad[:, [0, 2, 3, 4, 5, 6]] == False).all()  # noqa: E712
         assert all(out[i, 1] == np.inf for i in np.nonzero(bad[:, 1])[0])
+
+
+def test_chunks_over_workers_bit_identical_and_progress_can_stop():
+    mu = np.linspace(0.05, 1.0, 7)[:, None]
+    phi = np.linspace(0.0, 1.5, 5)[None, :]
+    one = albedo_aniso_values(mu, phi, 0.3, 0.1, workers=1)
+    seen = []
+    two = albedo_aniso_values(mu, phi, 0.3, 0.1, workers=2, progress=lambda d, n: seen.append((d, n)))
+    np.testing.assert_array_equal(one[0], two[0])
+    np.testing.assert_array_equal(one[1], two[1])
+    assert seen[-1] == (35, 35) and len(seen) > 1  # progress after each chunk
+
+    class Stop(Exception):
+        pass
+
+    calls = []
+
+    def stop(done, total):
+        calls.append(done)
+        raise Stop
+
+    with pytest.raises(Stop):
+        albedo_aniso_values(np.linspace(0.05, 1.0, 200), 0.4, 0.3, 0.1, workers=1, progress=stop)
+    assert len(calls) == 1  # no chunk started after the first one stopped the computation
