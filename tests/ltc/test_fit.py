@@ -8,6 +8,7 @@ code under test.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -105,12 +106,19 @@ def test_l1_metric_matches_quadrature_for_a_wrong_lobe():
     assert got == pytest.approx(want, abs=2e-5)
 
 
+@functools.lru_cache(maxsize=8)
+def _true_lobe(mu, alpha, dist, shadowing, E):
+    """Nodes, weights and f_r cos / E of the upper hemisphere's fine product rule (independent of
+    the matrix, so computed once per texel: the reference BRDF is the expensive part)."""
+    wi = ref.wi_of_mu(mu)
+    d, w = sphere_grid(hemisphere=True, n=16, panels=100)
+    return d, w, ref.f_r(wi, d, alpha, dist, shadowing) * d[:, 2] / E
+
+
 def brdf_lobe_l1(minv, mu, alpha, dist, shadowing, E):
     """int |D_ltc - f_r cos / E| over the sphere: the upper hemisphere by a fine product rule, the
     lower part is the LTC mass below the horizon (1 - its upper mass)."""
-    wi = ref.wi_of_mu(mu)
-    d, w = sphere_grid(hemisphere=True, n=16, panels=100)
-    T = ref.f_r(wi, d, alpha, dist, shadowing) * d[:, 2] / E
+    d, w, T = _true_lobe(mu, alpha, dist, shadowing, E)
     D = lobe(minv, d)
     return np.sum(w * np.abs(D - T)) + (1.0 - np.sum(w * D))
 
@@ -266,9 +274,7 @@ def test_upper_mass_closed_form_against_quadrature():
 
 def clipped_l1_ref(minv, amp, mu, alpha, dist, shadowing, E):
     """int over L_z > 0 of |amp D_ltc - f_r cos / E| by a fine product rule, written here."""
-    wi = ref.wi_of_mu(mu)
-    d, w = sphere_grid(hemisphere=True, n=16, panels=100)
-    T = ref.f_r(wi, d, alpha, dist, shadowing) * d[:, 2] / E
+    d, w, T = _true_lobe(mu, alpha, dist, shadowing, E)
     return np.sum(w * np.abs(amp * lobe(minv, d) - T))
 
 
