@@ -33,40 +33,12 @@ if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
 from bench.accuracy_sweep import ALPHA_FULL, MU_FULL  # noqa: E402
+from tests.reference.sampling import fresnel_spec, sample_texels  # noqa: E402
 from bench.common import CASES, DEFAULT_OUT, distribution_id, reference_module, shadowing_id  # noqa: E402
 
 DISTS = ("ggx", "beckmann")
 SHADS = ("separable", "correlated")
 FRESNEL_IDS = {"one": 0, "schlick": 1, "dielectric": 2, "conductor": 3}
-
-
-def _sample(seed, n, eta=None):
-    # the sampler of tests/integrate/test_integrate_accuracy.py, written again here
-    rng = np.random.default_rng(seed)
-    k = n // 2
-    mu = np.concatenate([rng.uniform(1e-4, 1.0, n - k), 10 ** rng.uniform(-4, 0, k)])
-    alpha = 10 ** rng.uniform(-3, 0, n)
-    etas = None
-    if eta is not None:
-        etas = rng.uniform(1.01, 4.0, n)
-        if eta == "<1":
-            etas = 1.0 / etas
-    return mu, alpha, etas
-
-
-def _fresnel(name, rng):
-    if name == "one":
-        return ("one",), 0.0, 0.0
-    if name == "schlick":
-        f0 = float(rng.uniform(0.02, 0.95))
-        return ("schlick", f0), f0, 0.0
-    if name == "dielectric":
-        eta = float(rng.uniform(1.01, 4.0))
-        if rng.uniform() < 0.5:
-            eta = 1.0 / eta
-        return ("dielectric", eta), eta, 0.0
-    eta, k = float(rng.uniform(0.1, 3.0)), float(rng.uniform(0.0, 6.0))
-    return ("conductor", eta, k), eta, k
 
 
 def texel_sets(quick: bool):
@@ -98,11 +70,11 @@ def texel_sets(quick: bool):
         for d, dist in enumerate(DISTS):
             for s, shad in enumerate(SHADS):
                 seed = 1000 + 100 * d + 10 * s + FRESNEL_IDS[fname]
-                spec, p0, p1 = _fresnel(fname, np.random.default_rng(seed + 7))
+                spec, p0, p1 = fresnel_spec(fname, np.random.default_rng(seed + 7))
                 kw = {"dist": distribution_id(dist), "shadowing": shadowing_id(shad), "ftype": FRESNEL_IDS[fname],
                       "fp0": p0, "fp1": p1}
                 for sd, n in ((seed, 2), (seed + 50000, 6)):
-                    mu, alpha, _ = _sample(sd, n)
+                    mu, alpha, _ = sample_texels(sd, n)
                     sets.append((f"test reflect {fname} {dist} {shad}", "reflect", kw, mu, alpha, np.ones(n),
                                  ("reflect", dist, shad, spec, "AB")))
     for d, dist in enumerate(DISTS):
@@ -110,14 +82,14 @@ def texel_sets(quick: bool):
             seed = 3000 + 100 * d + 10 * s
             kw = {"dist": distribution_id(dist), "shadowing": shadowing_id(shad)}
             for sd, n in ((seed, 3), (seed + 50000, 6)):
-                mu, alpha, _ = _sample(sd, n)
+                mu, alpha, _ = sample_texels(sd, n)
                 sets.append((f"test dfg {dist} {shad}", "dfg", kw, mu, alpha, np.ones(n), ("dfg", dist, shad, None, "AB")))
             seed = 4000 + 100 * d + 10 * s
-            mu, alpha, _ = _sample(seed, 50)
+            mu, alpha, _ = sample_texels(seed, 50)
             sets.append((f"larger sample E {dist} {shad}", "reflect", kw, mu, alpha, np.ones(50),
                          ("reflect", dist, shad, ("one",), "B")))
             for side in (">1", "<1"):
-                mu, alpha, eta = _sample(seed + (side == "<1") + 1, 50, eta=side)
+                mu, alpha, eta = sample_texels(seed + (side == "<1") + 1, 50, eta=side)
                 sets.append((f"larger sample RT {dist} {shad} {side}", "dielectric", kw, mu, alpha, eta,
                              ("dielectric", dist, shad, ("one",), "B")))
     return sets

@@ -21,6 +21,7 @@ from bsdf_tab import tabulate
 from bsdf_tab.integrate import integrate_texels
 from bsdf_tab.model import DISTRIBUTIONS, FRESNELS, SHADOWINGS
 from tests.reference import microfacet_ref as ref
+from tests.reference.sampling import fresnel_spec, sample_texels
 
 TOL = 1e-6  # the accuracy the integrator promises
 DISTS = {i: name for name, i in DISTRIBUTIONS.items()}
@@ -29,34 +30,8 @@ COMBOS = [(d, s) for d in DISTS for s in SHADS]
 FTYPES = dict(FRESNELS)
 
 
-def _sample(seed, n, *, eta=None):
-    """n texels: mu half uniform in [1e-4, 1], half log-uniform; alpha log-uniform [1e-3, 1];
-    plus edge texels. eta: None, ">1" (uniform in [1.01, 4]) or "<1" (reciprocals)."""
-    rng = np.random.default_rng(seed)
-    k = n // 2
-    mu = np.concatenate([rng.uniform(1e-4, 1.0, n - k), 10 ** rng.uniform(-4, 0, k)])
-    alpha = 10 ** rng.uniform(-3, 0, n)
-    etas = None
-    if eta is not None:
-        etas = rng.uniform(1.01, 4.0, n)
-        if eta == "<1":
-            etas = 1.0 / etas
-    return mu, alpha, etas
-
-
-def _fresnel_spec(name, rng):
-    if name == "one":
-        return ("one",), 0.0, 0.0
-    if name == "schlick":
-        f0 = float(rng.uniform(0.02, 0.95))
-        return ("schlick", f0), f0, 0.0
-    if name == "dielectric":
-        eta = float(rng.uniform(1.01, 4.0))
-        if rng.uniform() < 0.5:
-            eta = 1.0 / eta
-        return ("dielectric", eta), eta, 0.0
-    eta, k = float(rng.uniform(0.1, 3.0)), float(rng.uniform(0.0, 6.0))
-    return ("conductor", eta, k), eta, k
+_sample = sample_texels
+_fresnel_spec = fresnel_spec
 
 
 class _Collector:
