@@ -34,7 +34,7 @@ if str(REPO_ROOT) not in sys.path:
 
 from bench.accuracy_sweep import ALPHA_FULL, MU_FULL  # noqa: E402
 from tests.reference.sampling import fresnel_spec, sample_texels  # noqa: E402
-from bench.common import CASES, DEFAULT_OUT, distribution_id, reference_module, shadowing_id  # noqa: E402
+from bench.common import CASES, DEFAULT_OUT, distribution_id, parse_variants, reference_module, shadowing_id  # noqa: E402
 
 DISTS = ("ggx", "beckmann")
 SHADS = ("separable", "correlated")
@@ -163,13 +163,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         tols = [float(t) for t in args.tols.split(",")]
-        variants = [{}]
-        for spec in args.variant:
-            d = {}
-            for kv in spec.split(","):
-                k, val = kv.split("=")
-                d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
-            variants.append(d)
+        variants = [{}] + parse_variants(args.variant)
     except ValueError as exc:
         print(f"accuracy_honesty.py: error: bad --tols or --variant ({exc})", file=sys.stderr)
         return 2

@@ -195,3 +195,20 @@ def pareto(points):
             front.append(k)
             best = points[k][1]
     return front
+
+
+def parse_variants(texts) -> list[dict]:
+    """``--variant KEY=VALUE[,KEY=VALUE]`` options -> integrate_texels keyword dicts (ints or floats).
+
+    Raises ValueError naming the bad text (the scripts print it as one line and exit 2).
+    """
+    variants = []
+    for text in texts:
+        d = {}
+        for kv in text.split(","):
+            k, sep, val = kv.partition("=")
+            if not sep or not k:
+                raise ValueError(f"--variant: expected KEY=VALUE, got {kv!r}")
+            d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
+        variants.append(d)
+    return variants

@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bsdf_tab  # noqa: E402
 from bsdf_tab.integrate.runtime import default_workers  # noqa: E402
 import numpy_baseline  # noqa: E402
+from common import parse_variants  # noqa: E402
 
 CASES = [
     ("albedo 32x32 GGX", {"table": "albedo", "distribution": "ggx"}, "reflect"),
@@ -219,13 +220,10 @@ def main(argv=None) -> int:
     parser.add_argument("--variant", action="append", default=[], metavar="KEY=VALUE[,KEY=VALUE]",
                         help="also count the texels with these integrate_texels keywords")
     args = parser.parse_args(argv)
-    variants = []
-    for v in args.variant:
-        d = {}
-        for kv in v.split(","):
-            k, val = kv.split("=")
-            d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
-        variants.append(d)
+    try:
+        variants = parse_variants(args.variant)
+    except ValueError as exc:
+        parser.error(str(exc))
     print(f"{'case':<24} {'texels':>6} {'warp s':>8} {'max err':>10} {'numpy s':>9} {'n':>5} {'np diff':>9} {'ratio':>8}")
     result = run(args.quick, cost=not args.no_cost, variants=variants, tol=args.tol, device=args.device,
                  numpy_baseline_on=not args.no_numpy)
