@@ -35,6 +35,19 @@ cached by the canonical hash of their spec, returned as OpenEXR (default), NumPy
 Errors are JSON `{"error": {"status", "code", "param", "query_param", "message", "allowed"}}`."""
 
 
+async def _warm_in_turns(store: TableStore) -> None:
+    """Load the Warp kernels of every table kind, one kind per task of the compute pool.
+
+    A request that arrives meanwhile queues behind the one kind being warmed, not behind all
+    of them (one task for every kind made the first request of a fresh service wait about
+    0.5 core-seconds for kinds it did not ask for)."""
+    from .warmup import warm_kind, warm_kinds
+
+    loop = asyncio.get_running_loop()
+    for kind in warm_kinds():
+        await loop.run_in_executor(store.compute_pool, warm_kind, kind, store.settings.device)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service.
 
@@ -51,9 +64,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         warm = None
-        if settings.warmup:
-            loop = asyncio.get_running_loop()
-            warm = loop.run_in_executor(store.compute_pool, store.warmup)  # in the background
+        if settings.warmup:  # in the background, one kind per compute-pool task (_warm_in_turns)
+            warm = asyncio.get_running_loop().create_task(_warm_in_turns(store))
         try:
             resumed = jobs.recover()  # jobs a dead process left queued or running
             if resumed:

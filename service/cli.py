@@ -56,4 +56,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 def register(register_command) -> None:
     """Add ``serve`` to the ``bsdf-tab`` command: the ``bsdf_tab.commands`` entry point (pyproject.toml)."""
-    register_command("serve", "run the HTTP service (FastAPI on uvicorn)", _configure, _serve)
+    # the app's modules (FastAPI, the table code, Warp) are imported by `bsdf-tab` before _serve
+    # runs, with the garbage collector paused (bsdf_tab.cli.main.preload)
+    register_command("serve", "run the HTTP service (FastAPI on uvicorn)", _configure, _serve,
+                     imports=("service.app", "service.server"))

@@ -19,8 +19,6 @@ import io
 import re
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from bsdf_tab.table import Table
 
@@ -192,6 +190,10 @@ def render_png(table: Table, params: PreviewParams) -> bytes:
 
 def draw_png(coords: list[np.ndarray], names: list[str], values: np.ndarray, channel: str, title: str) -> bytes:
     """A line plot (one axis) or heatmap (two axes: first on x, second on y) of ``values``."""
+    # matplotlib (about 1 s to import) loads with the first preview, not at the service's start
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(6.4, 4.8), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()

@@ -20,21 +20,31 @@ def tiny_spec(kind: str) -> dict:
     return {"table": kind, "axes": axes}
 
 
-def warm_all(device: str | None = None, strict: bool = False) -> list[str]:
-    """Tabulate a tiny table of every kind; returns the kinds that worked."""
-    import bsdf_tab
+def warm_kinds() -> list[str]:
+    """The kinds to warm, in catalog order (the core kinds, albedo first, lead it)."""
     from bsdf_tab.spec import TABLE_KINDS
 
-    done = []
-    for kind in TABLE_KINDS:
-        try:
-            bsdf_tab.tabulate(tiny_spec(kind), device=device, workers=1)
-            done.append(kind)
-        except Exception as exc:  # noqa: BLE001 - warm-up is best effort unless strict
-            if strict:
-                raise
-            log.warning("warm-up of %s failed: %s", kind, exc)
-    return done
+    return list(TABLE_KINDS)
+
+
+def warm_kind(kind: str, device: str | None = None, strict: bool = False) -> bool:
+    """Tabulate a tiny table of ``kind`` (its kernels compile, or load from Warp's cache);
+    True when it worked."""
+    import bsdf_tab
+
+    try:
+        bsdf_tab.tabulate(tiny_spec(kind), device=device, workers=1)
+        return True
+    except Exception as exc:  # noqa: BLE001 - warm-up is best effort unless strict
+        if strict:
+            raise
+        log.warning("warm-up of %s failed: %s", kind, exc)
+        return False
+
+
+def warm_all(device: str | None = None, strict: bool = False) -> list[str]:
+    """Tabulate a tiny table of every kind; returns the kinds that worked."""
+    return [kind for kind in warm_kinds() if warm_kind(kind, device, strict)]
 
 
 if __name__ == "__main__":

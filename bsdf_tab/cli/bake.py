@@ -23,8 +23,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .. import io
-from ..io.storage import ENCODINGS, FORMAT_STORAGE, choose_encoding, storage_report
 from .common import CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
 from .many import (
     Job,
@@ -38,14 +36,20 @@ from .many import (
 )
 from .plan import bake_scene, is_scene_file
 
-STORAGE_ENCODINGS = tuple(ENCODINGS)
+# The formats (bsdf_tab.io, NumPy) are imported where they are used: building the parser of
+# another command, or `bsdf-tab --help`, does not load them.
 EMIT_LANGS = ("glsl", "hlsl", "wgsl", "c", "warp")
 
 NAME = "bake"
+#: what the handler imports (``main.preload``: with the garbage collector paused)
+IMPORTS = ("bsdf_tab.io", "bsdf_tab.spec", "bsdf_tab.api", "bsdf_tab.scene")
 HELP = "bake a spec file (or the default set) to EXR"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
+    from .. import io
+    from ..io.storage import ENCODINGS
+
     parser.add_argument(
         "spec", nargs="?", help="spec JSON file, or a scene file (JSON or .toml); without it, bake the default set"
     )
@@ -67,7 +71,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="a scene file: max lookup error (docs/scenes.md); otherwise, with --precision auto, as --store-tol",
     )
     parser.add_argument(
-        "--precision", default=None, choices=("auto", *STORAGE_ENCODINGS),
+        "--precision", default=None, choices=("auto", *ENCODINGS),
         help="storage of a ktx2 / dds / png file (default: the preset's, else float16 / unorm16); "
              "auto: the smallest within --store-tol",
     )
@@ -104,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _output_format(out: Path, fmt: str | None) -> str:
     """The format of output file ``out``: from its ending, checked against ``--format``."""
+    from .. import io
+
     try:
         found = io.format_for(out)
     except ValueError:
@@ -116,6 +122,8 @@ def _output_format(out: Path, fmt: str | None) -> str:
 
 def _bake_one(args: argparse.Namespace) -> int:
     spec_path = Path(args.spec)
+    from .. import io
+
     spec = load_spec_file(spec_path)
     ending = io.get_format(args.format).suffixes[0] if args.format else ".exr"
     out = Path(args.output) if args.output else spec_path.with_name(spec_path.stem + ending)
@@ -145,7 +153,7 @@ def _bake_one(args: argparse.Namespace) -> int:
 
 
 def _compute_and_write(args: argparse.Namespace, spec: dict, out: Path, fmt: str, client) -> int:
-    from .. import api
+    from .. import api, io
 
     if io.can_stream(fmt) and api.streams(spec):
         # directional tables can be large: computed and written in blocks (bounded memory)
@@ -206,6 +214,8 @@ def _check_storage_options(args: argparse.Namespace) -> None:
 
 def _with_storage(table, fmt: str, args: argparse.Namespace, preset_encoding: str | None) -> None:
     """Set ``table.meta["storage"]``: the encoding the ``fmt`` file uses and its measured errors."""
+    from ..io.storage import FORMAT_STORAGE, choose_encoding, storage_report
+
     choices = FORMAT_STORAGE[fmt]
     precision = args.precision
     if precision == "auto":
@@ -244,6 +254,8 @@ def _emit(table, out: Path, langs: list[str]) -> None:
 
 
 def _write(table, out: Path, fmt: str) -> None:
+    from .. import io
+
     try:
         io.write(table, out, fmt)
     except FileNotFoundError:
@@ -261,6 +273,7 @@ def _bake_default_set(args: argparse.Namespace) -> int:
 
 
 def _bake_preset(args: argparse.Namespace) -> int:
+    from .. import io
     from ..presets import expand_preset, prepare_preset
 
     if args.spec:

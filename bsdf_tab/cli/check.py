@@ -15,6 +15,8 @@ import sys
 from .common import CliError, quiet_warp
 
 NAME = "check"
+#: what the handler imports (``main.preload``: with the garbage collector paused)
+IMPORTS = ("bsdf_tab.doctor",)
 HELP = "identify a LUT file and report what is wrong with it (the LUT doctor)"
 
 

@@ -7,7 +7,6 @@ import json
 from pathlib import Path
 
 from ..errors import SpecError
-from ..spec import normalize_spec
 
 PROG = "bsdf-tab"
 DEFAULT_OUT_DIR = "luts"
@@ -34,6 +33,8 @@ def check_workers(args: argparse.Namespace) -> None:
 
 def load_spec_file(path: Path) -> dict:
     """The normalized spec in a JSON file; every failure is one :class:`CliError` line."""
+    from ..spec import normalize_spec  # at call time: the spec loads the table catalog (and Warp)
+
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

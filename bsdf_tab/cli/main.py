@@ -2,11 +2,19 @@
 
 Errors are one line on stderr, ``bsdf-tab: error: <message>``, exit code 2 (1 for unexpected
 internal errors; ``--debug`` shows their traceback); Ctrl-C exits with 130.
+
+Start-up: building the parser imports no table code (the subcommand modules import the spec,
+the catalog and Warp inside their handlers). Before a handler runs, the modules it names in
+its ``IMPORTS`` are imported with the garbage collector paused, then frozen (``gc.freeze``):
+importing Warp and the kernel modules creates some 10^5 long-lived objects, and the full
+collections that their growth triggers cost 0.2-0.3 s of a command's start (``docs/scenes.md``).
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
+import importlib
 import sys
 from importlib import metadata
 from typing import Callable
@@ -21,8 +29,12 @@ COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callab
 #: Entry-point group through which other packages add subcommands (``serve``).
 ENTRY_POINT_GROUP = "bsdf_tab.commands"
 
+#: Subcommand name -> the modules its handler needs (imported by :func:`preload`).
+IMPORTS: dict[str, tuple[str, ...]] = {}
 
-def register_command(name: str, help: str, configure: Callable, handler: Callable) -> None:
+
+def register_command(name: str, help: str, configure: Callable, handler: Callable,
+                     imports: tuple[str, ...] = ()) -> None:
     """Add a subcommand.
 
     Parameters
@@ -35,12 +47,37 @@ def register_command(name: str, help: str, configure: Callable, handler: Callabl
         ``configure(parser)`` adds the subcommand's arguments.
     handler : callable
         ``handler(args) -> int`` runs it and returns the exit code.
+    imports : tuple of str, optional
+        Modules the handler needs: :func:`main` imports them before it runs (:func:`preload`).
     """
     COMMANDS[name] = (help, configure, handler)
+    IMPORTS[name] = tuple(imports)
 
 
 for _module in (bake, info, presets, plan, bench, check):
-    register_command(_module.NAME, _module.HELP, _module.configure, _module.run)
+    register_command(_module.NAME, _module.HELP, _module.configure, _module.run, getattr(_module, "IMPORTS", ()))
+
+
+def preload(modules) -> None:
+    """Import ``modules`` with the garbage collector paused, then freeze what exists.
+
+    Import-time objects live as long as the process, so the full collections their growth
+    triggers find nothing to free; ``gc.freeze()`` then keeps them out of later collections.
+    A module that fails to import is left to the handler, which reports it as usual."""
+    if not modules:
+        return
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001 - the handler's own import reports it
+                break
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
 
 
 def _load_plugins() -> None:
@@ -55,17 +92,35 @@ def _load_plugins() -> None:
         register(register_command)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every registered subcommand."""
+_EVERY = object()  # build_parser(): configure every subcommand
+
+
+def build_parser(only=_EVERY) -> argparse.ArgumentParser:
+    """The argument parser with every registered subcommand.
+
+    ``only``: the name of the one subcommand whose arguments are added (None: none); the
+    others are listed with their help line only. :func:`main` passes the command named on its
+    command line, so ``bsdf-tab --help`` or ``bsdf-tab plan ...`` never runs the other
+    subcommands' ``configure`` (some import the formats, the doctor, NumPy)."""
     _load_plugins()
     parser = argparse.ArgumentParser(prog=PROG, description="Microfacet BSDF lookup tables with error estimates.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (help_text, configure, handler) in COMMANDS.items():
         sp = sub.add_parser(name, help=help_text, description=help_text)
-        configure(sp)
-        sp.set_defaults(handler=handler)
+        if only is _EVERY or only == name:
+            configure(sp)
+            sp.set_defaults(handler=handler)
     return parser
+
+
+def _command_in(argv: list[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first word that is not a top-level option)."""
+    for word in argv:
+        if word == "--debug":
+            continue
+        return None if word.startswith("-") else word
+    return None
 
 
 def _one_line(message: str) -> str:
@@ -105,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
     int
         Exit code: 0 success, 2 usage or input error, 1 internal error, 130 interrupted.
     """
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(only=_command_in(argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help (0) or a usage error (2)
@@ -114,6 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
+        preload(IMPORTS.get(args.command, ()))
         return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)

@@ -16,8 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from .. import io
-from ..spec import texel_count
 from .common import PROG, CliError, quiet_warp, summary
 
 __all__ = ["Job", "add_cluster_arguments", "bake_library", "bake_specs", "check_cost", "connect_cluster", "exr_job", "is_library_file",
@@ -128,7 +126,8 @@ def connect_cluster(scheduler: str):
 
 
 def _bake(args, todo: list[Job], client) -> int:
-    from .. import api
+    from .. import api, io
+    from ..spec import texel_count
 
     written = 0
     with _bar(sum(texel_count(j.spec) for j in todo), args.quiet) as bar:
@@ -156,6 +155,8 @@ def _bake(args, todo: list[Job], client) -> int:
 
 def _tables(api, args, todo, client, bar):
     """(index, Table) for each job: on the cluster as they complete, else one after the other."""
+    from ..spec import texel_count
+
     if client is not None:
         def advance(done: int, total: int) -> None:
             bar.update(max(0, int(bar.total * done / total if total else 0) - bar.n))

@@ -11,14 +11,20 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import SpecError
-from ..scene import ScenePlan, is_scene, load_scene_file, plan_scene
-from ..scene import bake_scene as write_scene
-from ..io import json_default
 from .common import CliError, check_workers, quiet_warp
 
+if TYPE_CHECKING:
+    from ..scene import ScenePlan
+
+# The scene package (the spec, the table catalog, Warp) is imported when a command runs, not
+# when the parser is built: ``bsdf-tab --help`` stays cheap.
+
 NAME = "plan"
+#: what the handler imports (``main.preload``: with the garbage collector paused)
+IMPORTS = ("bsdf_tab.scene", "bsdf_tab.api")
 HELP = "plan the minimal tables of a scene file for a lookup error (--tol T)"
 
 
@@ -37,6 +43,9 @@ def run(args: argparse.Namespace) -> int:
     """``bsdf-tab plan SCENE --tol T``: print the plan (text, or JSON with ``--json``)."""
     plan = _plan(args, args.scene)
     if args.json:
+        from ..io import json_default
+
+
         print(json.dumps(plan.to_dict(), indent=2, default=json_default))
     else:
         print(plan.text())
@@ -47,6 +56,8 @@ def is_scene_file(path: str) -> bool:
     """A spec path that holds a scene (top-level 'materials'; JSON or .toml), not one table's spec."""
     if Path(path).suffix.lower() == ".toml":
         return True  # table specs are JSON; the scene loader reports what is wrong with it
+    from ..scene import is_scene, load_scene_file
+
     try:
         return is_scene(load_scene_file(path))
     except SpecError:
@@ -60,6 +71,8 @@ def bake_scene(args: argparse.Namespace) -> int:
     """
     if not args.output:
         raise CliError("give -o DIR: the folder for the scene's tables and manifest.json")
+    from ..scene import bake_scene as write_scene
+
     plan = _plan(args, args.spec)
     path = write_scene(plan, args.output)  # SpecError "output: ..." if it is not a folder
     print(plan.text())
@@ -68,6 +81,8 @@ def bake_scene(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace, path: str) -> ScenePlan:
+    from ..scene import is_scene, load_scene_file, plan_scene
+
     check_workers(args)
     try:
         scene = load_scene_file(path)

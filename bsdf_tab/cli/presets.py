@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 NAME = "presets"
+#: what the handler imports (``main.preload``: with the garbage collector paused)
+IMPORTS = ("bsdf_tab.presets",)
 HELP = "list the engine presets (bake one with bake --preset NAME)"
 
 
