@@ -34,6 +34,7 @@ BENCHMARKS = {
     "anisotropy_tables": ("anisotropy_tables.py", "the smallest albedo_aniso table under a lookup error"),
     "sheen_peers": ("sheen_peers.py", "our sheen albedo against MaterialX's and three.js' fits and tables"),
     "load": ("load.py", "the service's hot path against a minimal app: requests/s and p99"),
+    "startup": ("startup.py", "where users wait: --help, a small bake, the example plan, the service's cold start"),
 }
 
 HELP = "run a benchmark from the source checkout (" + ", ".join(BENCHMARKS) + ")"
