@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -50,10 +51,13 @@ from .lookup import AxisPlan
 from .manifest import material_entry, plan_dict
 from .parse import MATERIAL_TABLES, check_lookup_tol, parse_scene
 from .search import MAX_CHECK_TEXELS, MAX_NODES, PLAN_MARGIN, search
+from .groups import run_groups
 from .texels import TexelStore
 
 __all__ = ["ScenePlan", "TablePlan", "plan_scene", "FIXED_SIZES", "MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN"]
 
+#: Groups planned at the same time (None: as many as ``workers``, by default the cores).
+GROUP_THREADS: int | None = None
 INTEGRATION_DIVISOR = 20.0  # a table's integration tolerance: lookup_tol / INTEGRATION_DIVISOR
 MIN_INTEGRATION_TOL = 1e-9
 SMALL_BLOCK = 32  # tabulations of fewer texels run on one worker thread
@@ -191,6 +195,13 @@ class ScenePlan:
 # --------------------------------------------------------------------------- helpers
 
 
+def _cores() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def _err_text(x: float) -> str:
     return "not computed (above the texel limit)" if math.isnan(x) else f"{x:.3g}"
 
@@ -205,8 +216,9 @@ def _table_spec(kind, dist, shadowing, fresnel, axes: dict, integration_tol: flo
 class _Cache:
     """Tables computed by :func:`bsdf_tab.api.tabulate` (the one path), memoized by spec."""
 
-    def __init__(self, device, workers, scheduler=None):
+    def __init__(self, device, workers, scheduler=None, first_of_kind=None):
         self.device, self.workers, self.scheduler = device, workers, scheduler
+        self.first_of_kind = first_of_kind or (lambda kind, run: run())  # .groups: kernels load once
         self.tables: dict[str, Any] = {}
         self.calls = 0
 
@@ -219,8 +231,10 @@ class _Cache:
             texels = math.prod(len(v) if isinstance(v, list) else SMALL_BLOCK for v in spec["axes"].values())
             # a few texels: one thread (starting a pool costs more than it saves; same values)
             workers = 1 if texels < SMALL_BLOCK else self.workers
-            self.tables[key] = api.tabulate(spec, device=self.device, workers=workers,
-                                            **({"scheduler": self.scheduler} if self.scheduler is not None else {}))
+            extra = {"scheduler": self.scheduler} if self.scheduler is not None else {}
+            self.tables[key] = self.first_of_kind(
+                (spec["table"], spec.get("method")),
+                lambda: api.tabulate(spec, device=self.device, workers=workers, **extra))
         return self.tables[key]
 
 
@@ -328,15 +342,12 @@ def plan_scene(
         lookup_tol = sc["lookup_tol"]
     else:
         lookup_tol = check_lookup_tol(lookup_tol, "tol")
-    cache = _Cache(device, workers, scheduler)
-    store = TexelStore(cache, before_compute)
     spacings = sc["lookup"]["spacings"]
     interpolation = sc["lookup"]["interpolation"]
     groups: dict[tuple, list[dict]] = {}
     for m in sc["materials"]:
         groups.setdefault(_group_key(m), []).append(m)
-    tables: list[TablePlan] = []
-    manifest: dict[str, dict] = {}
+    planned: list[tuple[TablePlan, list[dict], str]] = []
     counts: dict[str, int] = {}
     for key, mats in groups.items():
         kind, dist, shadowing = key[:3]
@@ -356,11 +367,25 @@ def plan_scene(
         fname = f"{base}_{counts[base]}.exr" if kind == "albedo" else f"{base}.exr"
         tp = TablePlan(fname, kind, dist, shadowing, fresnel, axes, [m["name"] for m in mats],
                        integration_tol=max(lookup_tol / INTEGRATION_DIVISOR, MIN_INTEGRATION_TOL))
-        _plan_table(tp, spacings, lookup_tol, interpolation, store, max_texels, log)
-        tables.append(tp)
+        planned.append((tp, mats, rname))
+
+    def task(tp: TablePlan):
+        def run(group_log, before, first_of_kind) -> TexelStore:
+            store = TexelStore(_Cache(device, workers, scheduler, first_of_kind), before)
+            _plan_table(tp, spacings, lookup_tol, interpolation, store, max_texels, group_log)
+            return store
+
+        return run
+
+    # the groups share no texels: searched on a few threads, with the outcome of a loop (.groups)
+    threads = 1 if scheduler is not None else min(len(planned), GROUP_THREADS or workers or _cores())
+    stores = run_groups([task(tp) for tp, _, _ in planned], threads, log, before_compute)
+    manifest: dict[str, dict] = {}
+    for tp, mats, rname in planned:
         for m in mats:
             manifest[m["name"]] = material_entry(m, tp, rname)
-    return ScenePlan(lookup_tol, interpolation, tables, manifest, tabulate_calls=store.calls,
-                     texels_computed=store.texels, texels_requested=store.requested)
+    return ScenePlan(lookup_tol, interpolation, [tp for tp, _, _ in planned], manifest,
+                     tabulate_calls=sum(s.calls for s in stores), texels_computed=sum(s.texels for s in stores),
+                     texels_requested=sum(s.requested for s in stores))
 
 
