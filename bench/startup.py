@@ -159,12 +159,142 @@ def measure(names: list[str], modes: list[str], repeats: int) -> list[dict]:
     return rows
 
 
+BREAKDOWN_CHILD = r"""
+import gc, json, sys, threading, time
+t_start = time.perf_counter()
+gc_time = [0.0]
+_gc_t0 = [0.0]
+def _cb(phase, info):
+    if phase == "start":
+        _gc_t0[0] = time.perf_counter()
+    else:
+        gc_time[0] += time.perf_counter() - _gc_t0[0]
+gc.callbacks.append(_cb)
+out = {}
+def mark(name, t0, gc0):
+    out[name] = time.perf_counter() - t0
+    out[name + "_gc"] = gc_time[0] - gc0
+t, g = time.perf_counter(), gc_time[0]; import numpy; mark("import_numpy", t, g)
+t, g = time.perf_counter(), gc_time[0]; import warp; mark("import_warp", t, g)
+t, g = time.perf_counter(), gc_time[0]
+from bsdf_tab.cli.main import preload, IMPORTS
+mark("import_cli", t, g)
+t, g = time.perf_counter(), gc_time[0]
+if sys.argv[1] == "paused":
+    preload(IMPORTS["plan"])
+else:
+    for m in IMPORTS["plan"]:
+        __import__(m)
+mark("import_bsdf_tab", t, g)
+from bsdf_tab.api import quiet_warp
+quiet_warp()
+t = time.perf_counter(); warp.init(); out["warp_init"] = time.perf_counter() - t
+import warp._src.context as ctx
+loads, launches, lock = [], [0.0, 0], threading.Lock()
+real_load = ctx.Module.load
+def load(self, *a, **k):
+    s = time.perf_counter(); r = real_load(self, *a, **k)
+    with lock:
+        loads.append(time.perf_counter() - s)
+    return r
+ctx.Module.load = load
+real_launch = warp.launch
+def launch(*a, **k):
+    s = time.perf_counter(); r = real_launch(*a, **k)
+    with lock:
+        launches[0] += time.perf_counter() - s; launches[1] += 1
+    return r
+warp.launch = launch
+import bsdf_tab.api as api
+real_tab, tab = api.tabulate, [0.0]
+def tabulate(spec, **kw):
+    s = time.perf_counter(); r = real_tab(spec, **kw)
+    with lock:
+        tab[0] += time.perf_counter() - s
+    return r
+api.tabulate = tabulate
+from bsdf_tab.scene import load_scene_file, plan_scene
+from bsdf_tab.io import json_default
+import bsdf_tab.scene.plan as plan_module
+plan_module.GROUP_THREADS = 1  # one group at a time: the parts add up
+scene = load_scene_file(sys.argv[2])
+t, c, g = time.perf_counter(), time.process_time(), gc_time[0]
+plan = plan_scene(scene, float(sys.argv[3]))
+out["plan"] = time.perf_counter() - t
+out["plan_cpu"] = time.process_time() - c
+out["plan_gc"] = gc_time[0] - g
+t = time.perf_counter(); text = json.dumps(plan.to_dict(), indent=2, default=json_default); out["json"] = time.perf_counter() - t
+out["tabulate_wall"] = tab[0]
+out["launch_thread_s"] = launches[0]
+out["launches"] = launches[1]
+out["module_load_first"] = loads[0] if loads else 0.0
+out["module_load_total"] = sum(loads)
+out["tabulate_calls"] = plan.tabulate_calls
+out["texels_computed"] = plan.texels_computed
+out["in_process_total"] = time.perf_counter() - t_start
+out["process_cpu"] = time.process_time()
+print(json.dumps(out))
+"""
+
+
+def breakdown(mode: str, repeats: int, env: dict) -> dict:
+    """Where the plan's time goes, from inside one process (medians of ``repeats`` runs):
+    interpreter start (``python -c pass``), the imports (NumPy, Warp, the rest of what ``plan``
+    imports, with the time of garbage collections during each), Warp's init, the kernel-module
+    loads, the planner (its tabulations' wall time, the kernel launches summed over threads),
+    the JSON output. The groups are planned one after the other here (``GROUP_THREADS = 1``) so
+    that the parts add up; the ``plan`` command above plans them on threads. ``mode``: ``paused`` imports as ``bsdf-tab`` does (collector paused),
+    ``plain`` with the collector running."""
+    runs = []
+    starts = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
+        starts.append(time.perf_counter() - t0)
+        proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(SCENE), "1e-3"], cwd=REPO_ROOT,
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        if proc.returncode != 0:
+            raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
+        runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    out = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    out["interpreter_start"] = statistics.median(starts)
+    return out
+
+
+def _print_breakdown(b: dict) -> None:
+    imports = b["import_numpy"] + b["import_warp"] + b["import_cli"] + b["import_bsdf_tab"]
+    gc_imports = b["import_numpy_gc"] + b["import_warp_gc"] + b["import_cli_gc"] + b["import_bsdf_tab_gc"]
+    rows = [
+        ("interpreter start (python -c pass)", b["interpreter_start"]),
+        ("import numpy", b["import_numpy"]),
+        ("import warp", b["import_warp"]),
+        ("import bsdf_tab.cli", b["import_cli"]),
+        ("import what plan needs (spec, catalog, kernels, scene, api)", b["import_bsdf_tab"]),
+        ("  of the imports: garbage collection", gc_imports),
+        ("warp.init()", b["warp_init"]),
+        ("plan_scene (groups one after the other)", b["plan"]),
+        ("  of it: tabulations (api.tabulate, wall)", b["tabulate_wall"]),
+        ("  of it: kernel launches (summed over threads)", b["launch_thread_s"]),
+        ("  of it: kernel-module loads (first / all)", b["module_load_total"]),
+        ("  planner's own work (plan - tabulations)", b["plan"] - b["tabulate_wall"]),
+        ("JSON of the plan", b["json"]),
+    ]
+    print(f"where `plan examples/scene.json --tol 1e-3` spends its time (medians; {b['tabulate_calls']:.0f} "
+          f"tabulations, {b['texels_computed']:.0f} texels, {b['launches']:.0f} launches; imports {imports:.2f} s):")
+    for name, value in rows:
+        print(f"  {name:<62} {value:7.3f} s")
+    print(f"  {'plan CPU (all threads) / first module load':<62} {b['plan_cpu']:7.3f} s / {b['module_load_first']:.3f} s")
+
+
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3, help="runs per command (median; default 3)")
     ap.add_argument("--only", default=",".join(COMMANDS), help=f"commands, comma-separated ({', '.join(COMMANDS)})")
     ap.add_argument("--bytecode", default="env,cached", help="modes: env, cached (default both)")
     ap.add_argument("-o", "--output", default=str(DEFAULT_OUT), help="JSON output (default bench/out/startup.json)")
+    ap.add_argument("--breakdown", default="paused", choices=("paused", "plain", "none"),
+                    help="also time the plan's parts from inside one process (paused: imports with the garbage "
+                         "collector paused, as bsdf-tab does; plain: running; none: skip)")
     args = ap.parse_args(argv)
     names = [n for n in args.only.split(",") if n]
     modes = [m for m in args.bytecode.split(",") if m]
@@ -175,14 +305,18 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         return 2
     load0 = os.getloadavg()
     rows = measure(names, modes, args.repeats)
+    parts = breakdown(args.breakdown, args.repeats, dict(os.environ)) if args.breakdown != "none" else None
     print(f"load average at start: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f} ({os.cpu_count()} cores)")
     print(f"{'command':<14} {'bytecode':<8} {'wall s (median)':>16} {'cpu s':>8}  walls")
     for r in rows:
         walls = " ".join(f"{w:.2f}" for w in r["walls"])
         print(f"{r['command']:<14} {r['bytecode']:<8} {r['wall_s']:>16.2f} {r['cpu_s']:>8.2f}  {walls}")
+    if parts is not None:
+        _print_breakdown(parts)
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
     record = {
+        "breakdown": parts, "breakdown_mode": args.breakdown,
         "load_average_at_start": load0, "cores": os.cpu_count(), "repeats": args.repeats,
         "python": sys.version.split()[0], "platform": platform.platform(),
         "pythondontwritebytecode": os.environ.get("PYTHONDONTWRITEBYTECODE"),
