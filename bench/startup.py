@@ -19,6 +19,7 @@ start); ``cached`` removes that variable and points ``PYTHONPYCACHEPREFIX`` at a
 folder, warmed by one run first, as an installed package with its ``.pyc`` files starts.
 
     python bench/startup.py [--repeats 3] [--only help,bake,plan,serve] [-o bench/out/startup.json]
+    python bench/startup.py --checkout ../before --checkout .     # two checkouts, interleaved
 """
 
 from __future__ import annotations
@@ -39,7 +40,6 @@ from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "bench" / "out" / "startup.json"
-SCENE = REPO_ROOT / "examples" / "scene.json"
 SMALL_SPEC = {"table": "albedo", "axes": {"mu": {"size": 8}, "alpha": {"size": 8}}, "tolerance": 1e-4}
 TABLE_PATH = "/tables/albedo?mu_size=4&alpha_size=4"
 COMMANDS = ("help", "bake", "plan", "serve", "serve_nowarm")
@@ -61,17 +61,17 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "bsdf_tab.cli", *args]
 
 
-def _run(cmd: list[str], env: dict) -> tuple[float, float]:
+def _run(cmd: list[str], env: dict, root: Path = REPO_ROOT) -> tuple[float, float]:
     """(wall, child CPU) of one command; a failure stops the benchmark with its output."""
     c0, t0 = _child_cpu(), time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO_ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.run(cmd, cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {proc.stderr.decode()[-2000:]}")
     return wall, _child_cpu() - c0
 
 
-def _serve(env: dict, tmp: Path, warmup: bool) -> tuple[float, float]:
+def _serve(env: dict, tmp: Path, warmup: bool, root: Path = REPO_ROOT) -> tuple[float, float]:
     """(seconds from process start to the first table response, child CPU until then)."""
     port = _free_port()
     cache = Path(tempfile.mkdtemp(dir=tmp, prefix="cache-"))
@@ -79,7 +79,7 @@ def _serve(env: dict, tmp: Path, warmup: bool) -> tuple[float, float]:
                "--log-level", "warning", *([] if warmup else ["--no-warmup"]))
     log = open(cache / "server.log", "wb")
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=REPO_ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=log, stderr=subprocess.STDOUT)
     try:
         while True:
             if proc.poll() is not None:
@@ -120,42 +120,48 @@ def _proc_cpu(pid: int) -> float:
         return float("nan")
 
 
-def _environment(mode: str, tmp: Path) -> dict:
+def _environment(mode: str, tmp: Path, root: Path) -> dict:
     env = dict(os.environ)
+    env["PYTHONPATH"] = str(root) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     if mode == "cached":
         env.pop("PYTHONDONTWRITEBYTECODE", None)
-        env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
+        env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache" / root.name)
     return env
 
 
-def measure(names: list[str], modes: list[str], repeats: int) -> list[dict]:
+def measure(names: list[str], modes: list[str], repeats: int, roots: list[Path]) -> list[dict]:
+    """Rows of medians per (checkout, bytecode mode, command); checkouts and commands interleaved."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="bsdf-tab-startup-") as tmpdir:
         tmp = Path(tmpdir)
         spec = tmp / "small.json"
         spec.write_text(json.dumps(SMALL_SPEC))
         runs = {
-            "help": lambda env: _run(_cli("--help"), env),
-            "bake": lambda env: _run(_cli("bake", str(spec), "-o", str(tmp / "small.exr"), "-q"), env),
-            "plan": lambda env: _run(_cli("plan", str(SCENE), "--tol", "1e-3", "--json", "-q"), env),
-            "serve": lambda env: _serve(env, tmp, warmup=True),
-            "serve_nowarm": lambda env: _serve(env, tmp, warmup=False),
+            "help": lambda env, root: _run(_cli("--help"), env, root),
+            "bake": lambda env, root: _run(_cli("bake", str(spec), "-o", str(tmp / "small.exr"), "-q"), env, root),
+            "plan": lambda env, root: _run(_cli("plan", str(root / "examples" / "scene.json"), "--tol", "1e-3",
+                                                "--json", "-q"), env, root),
+            "serve": lambda env, root: _serve(env, tmp, True, root),
+            "serve_nowarm": lambda env, root: _serve(env, tmp, False, root),
         }
         for mode in modes:
-            env = _environment(mode, tmp)
-            if mode == "cached":
-                _run(_cli("--help"), env)  # write the .pyc files of what --help imports
-                _run(_cli("bake", str(spec), "-o", str(tmp / "small.exr"), "-q"), env)  # and of a computation
-            times: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
+            envs = [_environment(mode, tmp, root) for root in roots]
+            for env, root in zip(envs, roots):  # kernels compiled (and .pyc written) before timing
+                _run(_cli("--help"), env, root)
+                _run(_cli("bake", str(spec), "-o", str(tmp / "small.exr"), "-q"), env, root)
+            times = {(i, n): [] for i in range(len(roots)) for n in names}
             load = os.getloadavg()[0]
             for _ in range(repeats):
                 for n in names:
-                    times[n].append(runs[n](env))
-            for n in names:
-                walls = [w for w, _ in times[n]]
-                cpus = [c for _, c in times[n]]
-                rows.append({"command": n, "bytecode": mode, "wall_s": statistics.median(walls),
-                             "cpu_s": statistics.median(cpus), "walls": walls, "cpus": cpus, "load_1min": load})
+                    for i, (env, root) in enumerate(zip(envs, roots)):
+                        times[(i, n)].append(runs[n](env, root))
+            for i, root in enumerate(roots):
+                for n in names:
+                    walls = [w for w, _ in times[(i, n)]]
+                    cpus = [c for _, c in times[(i, n)]]
+                    rows.append({"checkout": str(root), "command": n, "bytecode": mode,
+                                 "wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus),
+                                 "walls": walls, "cpus": cpus, "load_1min": load})
     return rows
 
 
@@ -177,14 +183,13 @@ def mark(name, t0, gc0):
 t, g = time.perf_counter(), gc_time[0]; import numpy; mark("import_numpy", t, g)
 t, g = time.perf_counter(), gc_time[0]; import warp; mark("import_warp", t, g)
 t, g = time.perf_counter(), gc_time[0]
-from bsdf_tab.cli.main import preload, IMPORTS
+import bsdf_tab.cli.main as cli_main
 mark("import_cli", t, g)
 t, g = time.perf_counter(), gc_time[0]
-if sys.argv[1] == "paused":
-    preload(IMPORTS["plan"])
+if sys.argv[1] == "paused" and hasattr(cli_main, "preload"):
+    cli_main.preload(cli_main.IMPORTS["plan"])
 else:
-    for m in IMPORTS["plan"]:
-        __import__(m)
+    import bsdf_tab.scene, bsdf_tab.api
 mark("import_bsdf_tab", t, g)
 from bsdf_tab.api import quiet_warp
 quiet_warp()
@@ -237,7 +242,7 @@ print(json.dumps(out))
 """
 
 
-def breakdown(mode: str, repeats: int, env: dict) -> dict:
+def breakdown(mode: str, repeats: int, env: dict, root: Path = REPO_ROOT) -> dict:
     """Where the plan's time goes, from inside one process (medians of ``repeats`` runs):
     interpreter start (``python -c pass``), the imports (NumPy, Warp, the rest of what ``plan``
     imports, with the time of garbage collections during each), Warp's init, the kernel-module
@@ -251,7 +256,8 @@ def breakdown(mode: str, repeats: int, env: dict) -> dict:
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
         starts.append(time.perf_counter() - t0)
-        proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(SCENE), "1e-3"], cwd=REPO_ROOT,
+        proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(root / "examples" / "scene.json"),
+                               "1e-3"], cwd=root,
                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         if proc.returncode != 0:
             raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
@@ -291,34 +297,45 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="runs per command (median; default 3)")
     ap.add_argument("--only", default=",".join(COMMANDS), help=f"commands, comma-separated ({', '.join(COMMANDS)})")
     ap.add_argument("--bytecode", default="env,cached", help="modes: env, cached (default both)")
+    ap.add_argument("--checkout", action="append", default=None, metavar="DIR",
+                    help="time the commands of this source checkout (repeat: checkouts interleaved, "
+                         "e.g. before and after a change); default: this one")
     ap.add_argument("-o", "--output", default=str(DEFAULT_OUT), help="JSON output (default bench/out/startup.json)")
     ap.add_argument("--breakdown", default="paused", choices=("paused", "plain", "none"),
-                    help="also time the plan's parts from inside one process (paused: imports with the garbage "
-                         "collector paused, as bsdf-tab does; plain: running; none: skip)")
+                    help="also time the plan's parts from inside one process, for each checkout (paused: "
+                         "imports with the garbage collector paused, as bsdf-tab does; plain: running; none: skip)")
     args = ap.parse_args(argv)
     names = [n for n in args.only.split(",") if n]
     modes = [m for m in args.bytecode.split(",") if m]
+    roots = [Path(c).resolve() for c in (args.checkout or [str(REPO_ROOT)])]
     bad = [n for n in names if n not in COMMANDS] + [m for m in modes if m not in ("env", "cached")]
+    bad += [str(r) for r in roots if not (r / "bsdf_tab" / "__init__.py").is_file()]
     if bad or args.repeats < 1:
-        print(f"{prog or 'startup.py'}: error: unknown command or mode: {', '.join(bad) or '--repeats < 1'}",
+        print(f"{prog or 'startup.py'}: error: unknown command, mode or checkout: {', '.join(bad) or '--repeats < 1'}",
               file=sys.stderr)
         return 2
     load0 = os.getloadavg()
-    rows = measure(names, modes, args.repeats)
-    parts = breakdown(args.breakdown, args.repeats, dict(os.environ)) if args.breakdown != "none" else None
-    print(f"load average at start: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f} ({os.cpu_count()} cores)")
-    print(f"{'command':<14} {'bytecode':<8} {'wall s (median)':>16} {'cpu s':>8}  walls")
+    rows = measure(names, modes, args.repeats, roots)
+    parts = {}
+    if args.breakdown != "none":
+        for root in roots:
+            parts[str(root)] = breakdown(args.breakdown, args.repeats, _environment("env", Path("."), root), root)
+    print(f"load average at start: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f} ({os.cpu_count()} cores), "
+          f"at end: {os.getloadavg()[0]:.2f}")
+    print(f"{'checkout':<28} {'command':<14} {'bytecode':<8} {'wall s (median)':>16} {'cpu s':>8}  walls")
     for r in rows:
         walls = " ".join(f"{w:.2f}" for w in r["walls"])
-        print(f"{r['command']:<14} {r['bytecode']:<8} {r['wall_s']:>16.2f} {r['cpu_s']:>8.2f}  {walls}")
-    if parts is not None:
-        _print_breakdown(parts)
+        print(f"{r['checkout'][-28:]:<28} {r['command']:<14} {r['bytecode']:<8} {r['wall_s']:>16.2f} "
+              f"{r['cpu_s']:>8.2f}  {walls}")
+    for root, b in parts.items():
+        print(f"{root}:")
+        _print_breakdown(b)
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
     record = {
         "breakdown": parts, "breakdown_mode": args.breakdown,
-        "load_average_at_start": load0, "cores": os.cpu_count(), "repeats": args.repeats,
-        "python": sys.version.split()[0], "platform": platform.platform(),
+        "load_average_at_start": load0, "load_average_at_end": os.getloadavg(), "cores": os.cpu_count(),
+        "repeats": args.repeats, "python": sys.version.split()[0], "platform": platform.platform(),
         "pythondontwritebytecode": os.environ.get("PYTHONDONTWRITEBYTECODE"),
         "rows": rows,
     }
