@@ -29,8 +29,8 @@ import math
 
 import warp as wp
 
-from ..model.distribution import D, lambda_cos
-from ..model.fresnel import fresnel, fresnel_dielectric
+from ..model.distribution import D, dcos_tan_of_v, lambda_cos
+from ..model.fresnel import FRESNEL_CONDUCTOR, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK, fresnel, fresnel_dielectric
 from ..model.frame import refract_k2
 from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
 
@@ -43,6 +43,8 @@ MODE_DFG = wp.constant(MODES["dfg"])  # channels A, B: split-sum weights (1 - (1
 
 PI64 = wp.constant(wp.float64(math.pi))
 TWO_PI64 = wp.constant(wp.float64(2.0 * math.pi))
+HALF_PI64 = wp.constant(wp.float64(0.5 * math.pi))
+vec24d = wp.types.vector(length=24, dtype=wp.float64)
 
 
 def mode_id(mode: str) -> int:
@@ -73,6 +75,8 @@ class TexelParams:
     err_model_inner: wp.int32  # adaptive only: the inner phi level's error model
     err_safety: wp.float64  # adaptive only: err_model 2's safety factor
     err_power: wp.float64  # adaptive only: err_model 2's power of the decay ratio
+    outer_nodes: wp.int32  # adaptive only: 15 (G7-K15) or 7 (G3-K7) nodes of the outer rule
+    bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 
 
 @wp.func
@@ -198,6 +202,73 @@ def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64
 
 
 @wp.func
+def _tail_tan(p: TexelParams, ta: wp.float64, ma: wp.float64):
+    """int_{t_a}^inf t (-dm) <= t_a m_a + int_{t_a}^inf min(m_a, alpha^2 / t^2) dt (m_a > 0)."""
+    # beyond t* = alpha / sqrt(m_a) the bound alpha^2 / t^2 is the smaller one
+    ts = wp.max(ta, p.alpha / wp.sqrt(ma))
+    return ta * ma + ma * (ts - ta) + p.alpha * p.alpha / ts
+
+
+@wp.func
+def mass_bound(p: TexelParams, va: wp.float64, vb: wp.float64):
+    """A rigorous upper bound of int_va^vb 2 (1 - v) int_0^pi g dphi dv, each channel, for the
+    integrand g of :func:`integrand_phi` (the adaptive method's outer integrand); -1 where none
+    is known (alpha <= 0, mu + mu Lambda(mu) = 0, a Fresnel outside the catalog's domain).
+
+    In u = 1 - (1 - v)^2 (the D cos CDF, du = 2 (1 - v) dv) the piece's mass is
+    (1 - va)^2 - (1 - vb)^2. Each channel of g is F G (i.m) / (mu cos theta_m) with F (or 1 - F,
+    or a split-sum weight) <= 1, G / mu <= G1(i) / mu = 1 / (mu + mu Lambda(mu)) (both Smith
+    forms, also for the transmitted G) and (i.m) / cos theta_m <= mu + sin(theta_i) tan(theta_m),
+    so the integral is at most pi (mu mass + sin(theta_i) int tan(theta_m) du) / (mu + mu Lambda).
+    tan is increasing in v: int tan du <= mass tan(theta_b) (vb < 1). At the horizon (vb = 1,
+    dielectric mode, where tan -> inf) the tail form instead: with m(t) = 1 - u the D cos mass
+    beyond tan = t, int_{t_a}^inf t (-dm) = t_a m(t_a) + int_{t_a}^inf m dt (by parts; t m -> 0),
+    and m(t) <= min(m(t_a), alpha^2 / t^2): GGX m = alpha^2 / (alpha^2 + t^2), Beckmann
+    m = exp(-t^2 / alpha^2) <= alpha^2 / t^2 (x e^-x < 1), checked for every registered
+    distribution by tests/integrate/test_integrate_adaptive_bound.py; also split once at the
+    mass m_w = (m_a t_a / (2 alpha))^2, tan <= t_w before it, the tail form after it (tight
+    for Beckmann's fast tail). The smallest of these forms is used."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    den = p.mu + p.li
+    if p.alpha <= zero or den <= zero or p.bound_share < zero:
+        # a mirror, or G / mu unbounded: no bound
+        return wp.float64(-1.0)
+    if p.mode == MODE_REFLECT:
+        # F <= 1 needs Schlick's f0 in [0, 1] and a conductor's eta, k >= 0 (the spec's domain)
+        if p.ftype == FRESNEL_SCHLICK and (p.fp0 < zero or p.fp0 > one):
+            return wp.float64(-1.0)
+        if p.ftype == FRESNEL_CONDUCTOR and (p.fp0 < zero or p.fp1 < zero):
+            return wp.float64(-1.0)
+    wa = one - va
+    wb = wp.max(zero, one - vb)
+    ma = wa * wa
+    mass = wp.max(zero, ma - wb * wb)
+    tan_int = wp.float64(-1.0)
+    if vb < one:
+        tan_int = mass * dcos_tan_of_v(vb, p.alpha, p.dist)
+    if va > zero and ma > zero:
+        ta = dcos_tan_of_v(va, p.alpha, p.dist)
+        if ta > zero:
+            tail = _tail_tan(p, ta, ma)
+            # or tan <= t_w up to the mass m_w = (m_a t_a / (2 alpha))^2 and the tail form beyond
+            # (near the form's optimum for a fast tail such as Beckmann's)
+            x = ma * ta / (wp.float64(2.0) * p.alpha)
+            mw = x * x
+            if mw < ma:
+                tw = dcos_tan_of_v(one - wp.sqrt(mw), p.alpha, p.dist)
+                if tw > ta and wp.isfinite(tw):
+                    tail = wp.min(tail, (ma - mw) * tw + _tail_tan(p, tw, mw))
+            if tan_int < zero or tail < tan_int:
+                tan_int = tail
+    if tan_int < zero or not wp.isfinite(tan_int):
+        # vb = 1 from va = 0: no finite bound of this form
+        return wp.float64(-1.0)
+    # (1 + 1e-12): the rounding of the few operations above
+    return PI64 * (p.mu * mass + p.sin_i * tan_int) / den * wp.float64(1.0 + 1.0e-12)
+
+
+@wp.func
 def m_terms(p: TexelParams, m: wp.vec3d):
     """:func:`terms` at the micro-normal m (jac = 1); zero when i or n sees the back of m.
 
@@ -263,3 +334,72 @@ def o_terms(p: TexelParams, o: wp.vec3d):
         t = ci * (-co) * p.eta * p.eta * (one - fresnel_dielectric(ci, p.eta)) * g * D(h[2], p.alpha, p.dist)
         return wp.vec2d(zero, t / (den * den))
     return out
+
+
+# the thresholds of the adaptive method's breakpoints (total internal reflection, transmission)
+
+
+@wp.func
+def tir_eta(p: TexelParams):
+    """The relative IOR whose critical angle kinks the integrand (eta < 1), or 2 (none): the
+    dielectric mode's eta, or a reflection's dielectric Fresnel eta (p0)."""
+    if p.mode == MODE_DIELECTRIC and p.eta > wp.float64(0.0):
+        return p.eta
+    if p.mode == MODE_REFLECT and p.ftype == FRESNEL_DIELECTRIC and p.fp0 > wp.float64(0.0):
+        return p.fp0
+    return wp.float64(2.0)
+
+
+@wp.func
+def transmission_floor(p: TexelParams, cm: wp.float64):
+    """Lowest i.m with transmission (eta < 1): the horizon root c_t if valid, else c_TIR."""
+    e2 = wp.float64(1.0) - p.eta * p.eta
+    if p.mu <= wp.float64(0.0):
+        # grazing from inside: nothing is transmitted
+        return wp.float64(2.0)
+    c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
+    if c_t * cm >= p.mu:
+        return c_t
+    return wp.sqrt(e2)
+
+
+@wp.func
+def _t_gap(p: TexelParams, theta_i: wp.float64, theta: wp.float64, which: wp.int32):
+    # c_max (which = 0) or c_min (which = 1) minus the transmission floor at theta_m = theta
+    cm = wp.cos(theta)
+    c = wp.cos(theta_i - theta)
+    if which == 1:
+        c = wp.cos(theta_i + theta)
+    return c - transmission_floor(p, cm)
+
+
+@wp.func
+def transmission_breaks(p: TexelParams, theta_i: wp.float64, cands: vec24d, ncand: wp.int32):
+    """Append theta_m where c_max or c_min crosses the transmission floor (at most 2 each)."""
+    n = ncand
+    steps = int(64)
+    for which in range(2):
+        found = int(0)
+        ta = wp.float64(1.0e-9)
+        ga = _t_gap(p, theta_i, ta, which)
+        for k in range(steps):
+            tb = HALF_PI64 * wp.float64(k + 1) / wp.float64(steps) - wp.float64(1.0e-9)
+            gb = _t_gap(p, theta_i, tb, which)
+            if (ga > wp.float64(0.0)) != (gb > wp.float64(0.0)) and found < 2 and n < 24:
+                lo = ta
+                hi = tb
+                glo = ga
+                for _it in range(60):
+                    mid = wp.float64(0.5) * (lo + hi)
+                    gm = _t_gap(p, theta_i, mid, which)
+                    if (gm > wp.float64(0.0)) == (glo > wp.float64(0.0)):
+                        lo = mid
+                        glo = gm
+                    else:
+                        hi = mid
+                cands[n] = wp.float64(0.5) * (lo + hi)
+                n += 1
+                found += 1
+            ta = tb
+            ga = gb
+    return cands, n

@@ -39,6 +39,12 @@ WG7 = np.array([
     0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
     0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327,
 ])
+# the Gauss-Kronrod 7-point rule (Kronrod's extension of Gauss 3), the same layout padded to 8
+# (the adaptive method's cheaper outer rule, ``outer_nodes=7``; exact to degree 11 and 5)
+XGK7 = np.array([0.9604912687080202, 0.7745966692414834, 0.4342437493468026, 0.0, 0.0, 0.0, 0.0, 0.0])
+WGK7 = np.array([0.1046562260264672, 0.2684880898683334, 0.4013974147759622, 0.4509165386584741,
+                 0.0, 0.0, 0.0, 0.0])
+WG3 = np.array([0.0, 0.5555555555555556, 0.0, 0.8888888888888888, 0.0, 0.0, 0.0, 0.0])
 # all 15 nodes: j < 8 at +XGK[j], j >= 8 at -XGK[j - 8] (the device loops' order)
 GK_X = np.concatenate([XGK, -XGK[:7]])
 GK_WK = np.concatenate([WGK, WGK[:7]])
@@ -48,6 +54,9 @@ vec8d = wp.types.vector(length=8, dtype=wp.float64)
 XGK_D = wp.constant(vec8d(*XGK.tolist()))
 WGK_D = wp.constant(vec8d(*WGK.tolist()))
 WG7_D = wp.constant(vec8d(*WG7.tolist()))
+XGK7_D = wp.constant(vec8d(*XGK7.tolist()))
+WGK7_D = wp.constant(vec8d(*WGK7.tolist()))
+WG3_D = wp.constant(vec8d(*WG3.tolist()))
 
 # Legendre coefficients of the degree-14 interpolant at the 15 nodes (orthonormal basis on
 # [-1, 1], nodes in GK_X order): rows k = 9 .. 14 of the inverse Vandermonde matrix. Their
