@@ -54,11 +54,14 @@ def test_every_index_once_and_the_threads_are_reused():
 def test_concurrent_callers_have_their_own_pools():
     wp.init()
     seen = [set(), set()]
-    barrier = threading.Barrier(2)
+    barrier, both_ran = threading.Barrier(2), threading.Barrier(2)
 
     def caller(k):
         barrier.wait(timeout=30)
         assert (_run(40, 2, seen[k]) == 1).all()
+        # both callers (so both pools and their threads) stay alive until both have run: a
+        # finished caller's pool threads exit, and a later thread may reuse their ident
+        both_ran.wait(timeout=30)
 
     threads = [threading.Thread(target=caller, args=(k,)) for k in range(2)]
     for t in threads:
