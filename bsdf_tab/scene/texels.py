@@ -73,9 +73,22 @@ class _Family:
         self.node_values: list[list[float]] = [[] for _ in range(dims)]  # per axis: id -> value
         self.keys = np.zeros(0, dtype=np.int64)  # packed texel keys, sorted
         self.rows = np.zeros((0, nchan))  # rows[i]: the texel of keys[i]
+        # per axis: the bytes of a node array asked for before -> its ids (a node's id never
+        # changes, and the checks ask for the same node arrays many times)
+        self.memo: list[dict[bytes, np.ndarray]] = [{} for _ in range(dims)]
 
     def ids(self, a: int, values: np.ndarray) -> np.ndarray:
         """The node ids of ``values`` on axis ``a`` (new nodes get the next ids)."""
+        values = np.ascontiguousarray(values, dtype=np.float64)
+        memo = self.memo[a].get(values.tobytes())
+        if memo is not None:
+            return memo
+        out = self._ids(a, values)
+        out.setflags(write=False)
+        self.memo[a][values.tobytes()] = out
+        return out
+
+    def _ids(self, a: int, values: np.ndarray) -> np.ndarray:
         k = np.round(values, KEY_DIGITS)
         keys, ids = self.node_keys[a], self.node_sorted_ids[a]
         pos = np.minimum(np.searchsorted(keys, k), max(len(keys) - 1, 0))
