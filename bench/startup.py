@@ -180,16 +180,18 @@ out = {}
 def mark(name, t0, gc0):
     out[name] = time.perf_counter() - t0
     out[name + "_gc"] = gc_time[0] - gc0
+if sys.argv[1] == "paused":  # as bsdf-tab does: every import of the command with the collector paused
+    gc.disable()
 t, g = time.perf_counter(), gc_time[0]; import numpy; mark("import_numpy", t, g)
 t, g = time.perf_counter(), gc_time[0]; import warp; mark("import_warp", t, g)
 t, g = time.perf_counter(), gc_time[0]
 import bsdf_tab.cli.main as cli_main
 mark("import_cli", t, g)
 t, g = time.perf_counter(), gc_time[0]
-if sys.argv[1] == "paused" and hasattr(cli_main, "preload"):
-    cli_main.preload(cli_main.IMPORTS["plan"])
-else:
-    import bsdf_tab.scene, bsdf_tab.api
+import bsdf_tab.scene, bsdf_tab.api
+if sys.argv[1] == "paused":
+    gc.freeze()
+    gc.enable()
 mark("import_bsdf_tab", t, g)
 from bsdf_tab.api import quiet_warp
 quiet_warp()
@@ -222,6 +224,13 @@ from bsdf_tab.scene import load_scene_file, plan_scene
 from bsdf_tab.io import json_default
 import bsdf_tab.scene.plan as plan_module
 plan_module.GROUP_THREADS = 1  # one group at a time: the parts add up
+groups_cpu = []
+if hasattr(plan_module, "_plan_table"):
+    real_plan_table = plan_module._plan_table
+    def plan_table(*a, **k):
+        c = time.process_time(); r = real_plan_table(*a, **k); groups_cpu.append(time.process_time() - c)
+        return r
+    plan_module._plan_table = plan_table
 scene = load_scene_file(sys.argv[2])
 t, c, g = time.perf_counter(), time.process_time(), gc_time[0]
 plan = plan_scene(scene, float(sys.argv[3]))
@@ -236,6 +245,7 @@ out["module_load_first"] = loads[0] if loads else 0.0
 out["module_load_total"] = sum(loads)
 out["tabulate_calls"] = plan.tabulate_calls
 out["texels_computed"] = plan.texels_computed
+out["groups_cpu"] = groups_cpu
 out["in_process_total"] = time.perf_counter() - t_start
 out["process_cpu"] = time.process_time()
 print(json.dumps(out))
@@ -262,7 +272,8 @@ def breakdown(mode: str, repeats: int, env: dict, root: Path = REPO_ROOT) -> dic
         if proc.returncode != 0:
             raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
         runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
-    out = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    out = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k != "groups_cpu"}
+    out["groups_cpu"] = [statistics.median(g) for g in zip(*(r["groups_cpu"] for r in runs))]
     out["interpreter_start"] = statistics.median(starts)
     return out
 
@@ -290,6 +301,11 @@ def _print_breakdown(b: dict) -> None:
     for name, value in rows:
         print(f"  {name:<62} {value:7.3f} s")
     print(f"  {'plan CPU (all threads) / first module load':<62} {b['plan_cpu']:7.3f} s / {b['module_load_first']:.3f} s")
+    if b.get("groups_cpu"):
+        g = b["groups_cpu"]
+        print(f"  {'CPU of each group (table), in order':<62} " + " ".join(f"{x:.2f}" for x in g) + " s")
+        print(f"  {'  on 2 free cores, groups on threads: at least max(largest, sum / 2)':<62} "
+              f"{max(max(g), sum(g) / 2):7.3f} s")
 
 
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
