@@ -88,6 +88,7 @@ def worker_main(argv: list[str]) -> int:
     import warp as wp
 
     wp.config.quiet = True
+    wp.init()  # its banner and warnings go to the worker's own output, not a module's log
     for name in argv[1:]:
         _write_json(out / f"{name}.start", {"pid": os.getpid(), "time": time.time()})
         _write_json(out / f"{name}.json", _compile_one(name, out))
