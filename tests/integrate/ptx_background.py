@@ -89,7 +89,10 @@ def worker_main(argv: list[str]) -> int:
 
     wp.config.quiet = True
     wp.init()  # its banner and warnings go to the worker's own output, not a module's log
+    parent = os.getppid()
     for name in argv[1:]:
+        if os.getppid() != parent:  # the test session is gone (killed): no one reads the rest
+            return 3
         _write_json(out / f"{name}.start", {"pid": os.getpid(), "time": time.time()})
         _write_json(out / f"{name}.json", _compile_one(name, out))
     return 0
