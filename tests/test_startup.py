@@ -57,10 +57,11 @@ def test_a_subcommand_help_configures_that_subcommand_only():
         from bsdf_tab.cli import main
         with contextlib.redirect_stdout(io.StringIO()) as buf:
             code = main(["plan", "--help"])
-        out = [code, buf.getvalue()]
+        out = [code, buf.getvalue(), "importlib.metadata" in sys.modules]
     """)
-    code, text = got["out"]
+    code, text, scanned = got["out"]
     assert code == 0 and "--tol" in text and "warp" not in got["loaded"], got
+    assert not scanned  # a built-in command skips the entry-point scan (plugins never replace one)
 
 
 def test_build_parser_still_configures_every_subcommand():

@@ -16,7 +16,6 @@ import argparse
 import gc
 import importlib
 import sys
-from importlib import metadata
 from typing import Callable
 
 from ..errors import SpecError
@@ -82,6 +81,8 @@ def preload(modules) -> None:
 
 def _load_plugins() -> None:
     """Subcommands of installed packages (entry points ``bsdf_tab.commands``: ``register(register_command)``)."""
+    from importlib import metadata  # ~30 ms of imports: only when the plugins are needed
+
     for entry in metadata.entry_points(group=ENTRY_POINT_GROUP):
         if entry.name in COMMANDS:
             continue
@@ -101,8 +102,10 @@ def build_parser(only=_EVERY) -> argparse.ArgumentParser:
     ``only``: the name of the one subcommand whose arguments are added (None: none); the
     others are listed with their help line only. :func:`main` passes the command named on its
     command line, so ``bsdf-tab --help`` or ``bsdf-tab plan ...`` never runs the other
-    subcommands' ``configure`` (some import the formats, the doctor, NumPy)."""
-    _load_plugins()
+    subcommands' ``configure`` (some import the formats, the doctor, NumPy). A built-in
+    ``only`` skips the entry-point scan too (plugins never replace a built-in command)."""
+    if only is _EVERY or only not in COMMANDS:
+        _load_plugins()
     parser = argparse.ArgumentParser(prog=PROG, description="Microfacet BSDF lookup tables with error estimates.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
