@@ -6,7 +6,9 @@ Polygonal-Light Shading with Linearly Transformed Cosines"), float64.
 - :mod:`.fit`: the deterministic warm-started Nelder-Mead fit and the reported metric;
 - :mod:`.kernels`: the fit's objective as a Warp kernel;
 - :mod:`.sphere`: the horizon-clipped sphere form factor of the two-texture layout;
-- :mod:`.polygon`: the clamped-cosine polygon integral with horizon clipping (NumPy).
+- :mod:`.polygon`: the clamped-cosine polygon integral with horizon clipping (NumPy);
+- :mod:`.exact`: the true lobe integrated over quads (a graded Warp rule, float64);
+- :mod:`.shading`: the fit's quad lights and the shading polish's objective (a Warp kernel).
 
 The table kind is :mod:`bsdf_tab.tables.ltc`; the device functions for shaders written in Warp
 are in :mod:`bsdf_tab.model.ltc`.

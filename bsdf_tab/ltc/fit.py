@@ -25,6 +25,11 @@ neighbour cannot derail a row. Everything is fixed-order float64 and the alpha a
 fixed blocks of :data:`BLOCK` columns: the same inputs give the same table bit for bit, for any
 number of worker threads.
 
+Shading polish (``shading``, the table's ``amplitude: shading``): after a row's fit, the four
+entries and an amplitude s (relative to the horizon one) are refitted on the clipped metric plus
+3 x fit_l1 plus 100 x the mean shading error over 32 fixed quad lights per texel
+(:mod:`bsdf_tab.ltc.shading`, :func:`_polish`); the next row still starts from the unpolished fit.
+
 Normal incidence (mu = 1): the lobe is rotationally symmetric; the fit there is the 1-D
 search over Minv / Minv_11 = diag(1, 1, m) (golden section), exactly isotropic.
 Near-mirror: the lobe's coordinates are scale-free (the width enters as ln m11), so small alpha
@@ -48,7 +53,7 @@ from .lobe import ALPHA_FLOOR, lobe_nodes
 from .matrix import (clipped_l1_metric, density, density_entries, entries_from_params, from_storage, l1_metric,
                      params_from_entries, upper_mass, upper_mass_entries)
 
-__all__ = ["FIT_RULE", "METRIC_RULES", "METRIC_SAFETY", "Objective", "fit_lobe", "fit_rows", "fit_metric", "fit_metrics",
+__all__ = ["FIT_RULE", "METRIC_RULES", "METRIC_SAFETY", "SHADING", "Objective", "fit_lobe", "fit_rows", "fit_metric", "fit_metrics",
            "fit_table", "nelder_mead"]
 
 #: The objective's rules, (nv, nphi, v_panels, phi_panels): a coarse one to get close, then a
@@ -58,6 +63,10 @@ FIT_RULE_FINE = (16, 12, 2, 2)
 #: The reported metric: a fine and a coarse rule; the error estimate is their difference.
 METRIC_RULES = ((20, 16, 2, 2), (16, 12, 1, 1))
 _SCAN = np.linspace(-1.5, 2.5, 9)
+#: The shading polish (amplitude ``shading``): the weight of the mean shading error on the fixed quad
+#: lights against the clipped L1 metric, the number of quads per texel, the weight of the sphere
+#: metric fit_l1 (docs/ltc.md: the two goals pull apart at the texels where the fits tie).
+SHADING = {"weight": 100.0, "quads": 32, "l1_weight": 3.0}
 #: Columns (alpha values) per independently fitted block.
 BLOCK = 32
 _MAX_ITERS = 240
@@ -246,19 +255,55 @@ def _isotropic(obj: Objective, e: np.ndarray, iters: int = 60) -> np.ndarray:
     return out
 
 
+def _polish(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray, E: np.ndarray, e: np.ndarray,
+            shading: dict, device=None) -> tuple[np.ndarray, np.ndarray]:
+    """The shading polish of one row (:mod:`bsdf_tab.ltc.shading`) from its clipped-L1 fit ``e`` (B, 4).
+
+    Nelder-Mead on the clipped L1 metric (coarse rule) plus ``shading["l1_weight"]`` x the sphere
+    metric plus ``shading["weight"]`` x the mean shading
+    error on ``shading["quads"]`` fixed quad lights, over the four entries and ln s (the amplitude
+    relative to the horizon one); at normal incidence over (ln Minv_22, ln s) only (the lobe is
+    rotationally symmetric). Returns (entries (B, 4), s (B,)).
+    """
+    from .shading import ShadingObjective
+
+    B = alpha.size
+    nodes = lobe_nodes(dist, shadowing, mu, alpha, *FIT_RULE)
+    obj = ShadingObjective(dist, shadowing, mu, alpha, E, nodes, shading["weight"], True, shading["quads"], device,
+                           l1_weight=shading.get("l1_weight", 0.0))
+    if mu[0] >= 1.0:
+        def iso(i, P):
+            X = np.zeros((len(i), 5))
+            X[:, 0], X[:, 3], X[:, 4] = 1.0, np.exp(P[:, 0]), P[:, 1]
+            return obj(i, X)
+
+        p0 = np.stack([np.log(np.maximum(e[:, 3], 1e-300)), np.zeros(B)], axis=1)  # Minv_22 > 0 (isotropic fit)
+        p, _ = nelder_mead(iso, p0, np.full((B, 2), 0.02), rtol=1e-4, atol=1e-6)
+        out = e.copy()
+        out[:, 3] = np.exp(p[:, 0])
+        return out, np.exp(p[:, 1])
+    x0 = np.concatenate([e, np.zeros((B, 1))], axis=1)
+    steps = np.concatenate([_entry_steps(e, 0.05), np.full((B, 1), 0.02)], axis=1)
+    x, _ = nelder_mead(obj, x0, steps, rtol=1e-4, atol=1e-6)
+    return x[:, :4], np.exp(x[:, 4])
+
+
 def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
              progress: Callable[[int], None] | None = None, backend: str = "warp", device=None,
-             clipped: bool = False) -> np.ndarray:
+             clipped: bool = False, shading: dict | None = None, E: np.ndarray | None = None) -> np.ndarray:
     """Fitted stored entries (len(mu), len(alpha), 4), rows from the largest mu to the smallest.
 
     Per row: Nelder-Mead in the parameters (beta, ln m11, ln m22, q) on the coarse rule from the
     best of the warm and the cold start, then in the stored entries on the fine rule (a second
     coordinate system, so a valley that stalls one does not stall the other), then the
-    neighbour pass. ``progress(n)`` receives the texels finished.
+    neighbour pass. With ``shading`` ({"weight", "quads"}; ``E`` (len(mu), len(alpha)) the exact
+    albedo) the row is then polished (:func:`_polish`) and a fifth entry holds the amplitude s
+    relative to the horizon one (the warm start of the next row stays the unpolished fit).
+    ``progress(n)`` receives the texels finished.
     """
     mu = np.asarray(mu, dtype=np.float64)
     alpha = np.asarray(alpha, dtype=np.float64)
-    out = np.zeros((mu.size, alpha.size, 4))
+    out = np.zeros((mu.size, alpha.size, 4 if shading is None else 5))
     prev = None
     for i in np.argsort(-mu, kind="stable"):
         row_mu = np.full(alpha.size, mu[i])
@@ -275,8 +320,12 @@ def fit_rows(dist: str, shadowing: str, mu: np.ndarray, alpha: np.ndarray,
         e = _neighbour_pass(fine, e, fe)
         if mu[i] >= 1.0:
             e = _isotropic(fine, e)
-        out[i] = e
         prev = params_from_entries(e)
+        if shading is not None:
+            pe, scale = _polish(dist, shadowing, row_mu, alpha, np.asarray(E, dtype=np.float64)[i], e, shading, device)
+            out[i, :, :4], out[i, :, 4] = pe, scale
+        else:
+            out[i] = e
         if progress is not None:
             progress(alpha.size)
     return out
@@ -346,12 +395,14 @@ def fit_metric(dist: str, shadowing: str, mu, alpha, minv, E=None):
 
 
 def fit_table(dist: str, shadowing: str, mu, alpha, progress: Callable[[int], None] | None = None,
-              workers: int = 1, device=None, clipped: bool = False) -> np.ndarray:
+              workers: int = 1, device=None, clipped: bool = False, shading: dict | None = None, E=None):
     """Minv (len(mu), len(alpha), 3, 3) of the fit (Minv_11 = 1): :func:`fit_rows` on threads.
 
     The alpha axis is cut into fixed blocks of :data:`BLOCK` columns, fitted independently and
     spread over ``workers`` threads, so the result does not depend on ``workers``;
-    ``progress(n)`` is called with texel increments (serialized by a lock).
+    ``progress(n)`` is called with texel increments (serialized by a lock). With ``shading``
+    (and ``E``, the exact albedo on the grid) the shading polish runs after each row's fit and the
+    result is (Minv, s), s (len(mu), len(alpha)) the amplitude relative to the horizon one.
     """
     mu = np.asarray(mu, dtype=np.float64)
     alpha = np.asarray(alpha, dtype=np.float64)
@@ -364,9 +415,10 @@ def fit_table(dist: str, shadowing: str, mu, alpha, progress: Callable[[int], No
                 progress(n)
 
     def one(cols):
-        return cols, fit_rows(dist, shadowing, mu, alpha[cols], report, device=device, clipped=clipped)
+        return cols, fit_rows(dist, shadowing, mu, alpha[cols], report, device=device, clipped=clipped,
+                              shading=shading, E=None if E is None else np.asarray(E)[:, cols])
 
-    params = np.zeros((mu.size, alpha.size, 4))
+    params = np.zeros((mu.size, alpha.size, 4 if shading is None else 5))
     # one evaluation here loads the kernel module before the threads race for it
     Objective(dist, shadowing, mu[:1], alpha[:1], device=device)(np.zeros(1, dtype=np.int32), np.eye(1, 4))
     if len(chunks) == 1 or workers <= 1:
@@ -376,4 +428,5 @@ def fit_table(dist: str, shadowing: str, mu, alpha, progress: Callable[[int], No
             results = list(pool.map(one, chunks))
     for cols, p in results:
         params[:, cols] = p
-    return from_storage(*np.moveaxis(params, -1, 0))
+    minv = from_storage(*np.moveaxis(params[..., :4], -1, 0))
+    return minv if shading is None else (minv, params[..., 4])
