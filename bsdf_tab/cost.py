@@ -89,9 +89,11 @@ KIND_HOST_SECONDS = {"ltc": (0.15, 0.011),
                      "sheen_albedo": (0.02, 0.0015), "sheen_albedo_avg": (0.02, 0.08), "albedo_aniso": (0.0, 0.012)}
 #: A kind's own spec keys that scale its host cost: kind -> key -> value -> factor (measured:
 #: the exact Smith Lambda of Charlie tabulates the projected area per alpha: ~5x the fitted texel,
-#: ~2x the fitted mu-average).
+#: ~2x the fitted mu-average; the LTC shading refit, amplitude "shading", 1.7-2.7x the
+#: horizon fit of a 16 x 16 table).
 KIND_OPTION_HOST_SCALE = {"sheen_albedo": {"sheen_shadowing": {"exact": 5.0}},
-                          "sheen_albedo_avg": {"sheen_shadowing": {"exact": 2.0}}}
+                          "sheen_albedo_avg": {"sheen_shadowing": {"exact": 2.0}},
+                          "ltc": {"amplitude": {"shading": 2.0}}}
 #: Kinds that average over mu (one integration per node of the mu-average's panels).
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
@@ -372,6 +374,7 @@ SWEEP = (
     {"table": "dielectric", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}, "eta": {"size": 4}}, "tolerance": 1e-5},
     {"table": "albedo_avg", "axes": {"alpha": {"size": 4}}},
     {"table": "ltc", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}},
+    {"table": "ltc", "amplitude": "shading", "axes": {"mu": {"size": 4}, "alpha": {"size": 4}}},
     {"table": "albedo_aniso", "axes": {"mu": {"size": 3}, "phi_v": {"size": 2}, "alpha": {"size": 3},
                                        "anisotropy": {"size": 2}}},
     {"table": "sheen_albedo", "axes": {"mu": {"size": 8}, "alpha": {"size": 8}}},
