@@ -82,21 +82,14 @@ import warp as wp
 
 from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
-    MODE_DFG,
-    MODE_DIELECTRIC,
-    MODE_REFLECT,
-    MODES,
-    TexelParams,
-    begin_texel,
-    integrand_phi,
-    mass_bound,
-    tir_eta,
-    transmission_breaks,
-    vec24d,
-    mode_id,
+    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, integrand_phi,
+    mass_bound, tir_eta, transmission_breaks, vec24d, mode_id,
 )
 from .quadrature import WG3_D, WG7_D, WGK7_D, WGK_D, XGK7_D, XGK_D, decay_ratio, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
+
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
 
 _vec5d = wp.types.vector(length=5, dtype=wp.float64)
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)

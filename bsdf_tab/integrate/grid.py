@@ -26,6 +26,9 @@ import warp as wp
 from .fixed import finalize, launch_texels
 from .integrand import PI64, TexelParams, begin_texel, o_terms, store
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 DEFAULT_EFFORT = 65536
 SAFETY = 3.0  # times |Q(n) - Q(n/2)|
 LOBE_CELLS = 2.0  # the lobe must span this many coarse cells

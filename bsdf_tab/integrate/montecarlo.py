@@ -41,6 +41,9 @@ from ..model.distribution import dcos_sample_tan, sample_vndf
 from .fixed import finalize, launch_texels, lobe_width
 from .integrand import PI64, TWO_PI64, TexelParams, begin_texel, m_terms, o_terms, store
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 DEFAULT_EFFORT = {"mc_cosine": 65536, "mc_dcos": 65536, "mc_vndf": 65536, "qmc_vndf": 16384}
 QMC_REPLICATES = wp.constant(8)
 _T_QUANTILE = 5.408  # Student t, 7 degrees of freedom, two-sided 99.9%

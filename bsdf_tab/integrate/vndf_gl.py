@@ -27,6 +27,9 @@ from ..model.distribution import sample_vndf
 from .fixed import finalize, launch_texels
 from .integrand import PI64, TexelParams, begin_texel, m_terms, store
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 DEFAULT_EFFORT = 4096
 SAFETY = 4.0
 

@@ -30,6 +30,9 @@ from ..model.distribution import D, distribution_id
 from ..model.shadowing import SHADOWINGS, smith_G_over_cos_i
 from .lobe import ALPHA_FLOOR
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 __all__ = ["COARSE_RULE", "FINE_RULE", "RULE", "peak_points", "quad_integrals"]
 
 #: (Gauss-Legendre nodes per panel, the panels' width in ln s and ln t, the first radial panel

@@ -13,6 +13,9 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 __all__ = ["ObjectiveKernel"]
 
 _INV_PI = wp.constant(wp.float64(0.31830988618379067154))

@@ -28,6 +28,9 @@ import warp as wp
 from ..model.ltc import ltc_minv, ltc_quad_integral
 from .exact import quad_integrals
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 __all__ = ["FIT_QUADS", "ShadingObjective", "fit_quads"]
 
 #: Quad lights per texel in the polish (half about the mirror direction, half over the hemisphere).

@@ -39,6 +39,9 @@ from ..model.ggx_aniso import aniso_widths, ggx_aniso_lambda_cos
 from ..model.shadowing import SHADOWINGS
 from ._common import Context
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 F = wp.float64
 _PI = wp.constant(wp.float64(math.pi))
 _ROUNDING = wp.constant(wp.float64(1.0e-14))

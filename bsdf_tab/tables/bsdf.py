@@ -75,6 +75,9 @@ from ..model import (
 )
 from ._common import Context, integrator_params
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 __all__ = ["CHANNELS", "EPS_REL", "KINDS", "blocks", "compute", "material_alpha"]
 
 CHANNELS = ("f_r", "f_t", "f_r_err", "f_t_err")

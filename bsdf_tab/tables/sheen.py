@@ -47,6 +47,9 @@ from ..model.charlie import (
 )
 from ._common import Context
 
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
+wp.set_module_options({"enable_backward": False})
+
 #: The shadowing choices (the spec's ``sheen_shadowing`` of the sheen kinds) -> kernel mode.
 SHEEN_SHADOWINGS = {"fitted": 0, "exact": 1, "ashikhmin": 2}
 _MAX_GRADED = 48
