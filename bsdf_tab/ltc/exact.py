@@ -16,7 +16,7 @@ width O(1), which a fixed rule resolves), Gauss-Legendre in t. The lobe f_r cos 
 comes from :mod:`bsdf_tab.model` (G / mu from mu Lambda(mu): finite at mu = 0).
 
 Accuracy: against the independent adaptive cubature of ``bench/ltc.py`` and against SciPy
-(tests/ltc/test_exact.py); the rule's error is estimated by a coarser rule (``coarse``).
+(tests/ltc/test_shading.py); the rule's error is estimated by a coarser rule (``coarse``).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import warp as wp
 from ..model.distribution import D, distribution_id
 from ..model.shadowing import SHADOWINGS, smith_G_over_cos_i
 from .lobe import ALPHA_FLOOR
+from ..integrate.runtime import resolve_device
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
@@ -202,7 +203,7 @@ def quad_integrals(quads, mu, alpha, dist: str = "ggx", shadowing: str = "correl
     quads = np.ascontiguousarray(quads, dtype=np.float64)
     mu = np.ascontiguousarray(np.broadcast_to(mu, quads.shape[:1]), dtype=np.float64)
     alpha = np.maximum(np.ascontiguousarray(np.broadcast_to(alpha, quads.shape[:1]), dtype=np.float64), ALPHA_FLOOR)
-    dev = wp.get_device(device or "cpu")
+    dev = resolve_device(device)
     xs, ws = _gl01(rule[0])
     arr = lambda a, dt=wp.float64: wp.array(np.ascontiguousarray(a), dtype=dt, device=dev)  # noqa: E731
     out = wp.zeros(len(quads), dtype=wp.float64, device=dev)

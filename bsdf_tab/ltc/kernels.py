@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..integrate.runtime import resolve_device
+
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
@@ -65,7 +67,7 @@ class ObjectiveKernel:
     def __init__(self, L: np.ndarray, wn: np.ndarray, mf: np.ndarray, device=None, max_batch: int = 0,
                  clipped: bool = False):
         self.clip = 1 if clipped else 0
-        self.device = wp.get_device(device or "cpu")
+        self.device = resolve_device(device)
         self.L = wp.array(np.ascontiguousarray(L), dtype=wp.vec3d, device=self.device)
         self.wn = wp.array(np.ascontiguousarray(wn), dtype=wp.float64, device=self.device)
         self.mf = wp.array(np.ascontiguousarray(mf), dtype=wp.float64, device=self.device)

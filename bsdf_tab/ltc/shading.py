@@ -27,6 +27,7 @@ import warp as wp
 
 from ..model.ltc import ltc_minv, ltc_quad_integral
 from .exact import quad_integrals
+from ..integrate.runtime import resolve_device
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
@@ -201,7 +202,7 @@ class ShadingObjective:
         self.weight = float(weight)
         self.l1_weight = float(l1_weight)
         self.count = 0
-        self.device = wp.get_device(device or "cpu")
+        self.device = resolve_device(device)
         arr = lambda a, dt=wp.float64: wp.array(np.ascontiguousarray(a), dtype=dt, device=self.device)  # noqa: E731
         self._inputs = [arr(L, wp.vec3d), arr(wn), arr(mf), arr(quads, wp.vec3d), arr(self.target)]
         self._size = 0
