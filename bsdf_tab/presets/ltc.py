@@ -19,25 +19,14 @@ r = a/63, alpha = max(r^2, 1e-5) (``../shared/anchors/heitz_ltc`` README):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .recipe import Output, Preset
 
-__all__ = ["PRESET_LIST", "LtcPreset"]
+__all__ = ["PRESET_LIST"]
 
-
-@dataclass(frozen=True)
-class LtcPreset(Preset):
-    """A :class:`~.recipe.Preset` of an ``ltc`` table with its ``amplitude`` (the fit objective)."""
-
-    amplitude: str = "shading"
-
-    def spec(self, axes: dict) -> dict:
-        spec = super().spec(axes)
-        spec["amplitude"] = self.amplitude
-        return spec
+#: the fit objective of both presets (docs/ltc.md)
+_OPTIONS = {"amplitude": "shading"}
 
 _N = 64
 
@@ -76,11 +65,11 @@ _COMMON = {
 }
 
 PRESET_LIST = [
-    LtcPreset(
+    Preset(
         name="heitz-ltc", peer="Heitz et al. 2016 LTC fit (ltc_code fit/results/ltc.inc, the anchors' layout)",
         description="LTC matrix M and inverse (nonzero entries), magnitude and fit error, 64 x 64 [t, a]",
         axes=lambda: {"mu": _heitz_mu(), "alpha": _alpha()},
-        table="ltc", shadowing="correlated", spec_axes={"mu": "mu", "alpha": "alpha"},
+        table="ltc", shadowing="correlated", spec_axes={"mu": "mu", "alpha": "alpha"}, options=_OPTIONS,
         outputs=(
             Output("M_00", ("M_00",)), Output("M_20", ("M_20",)), Output("M_02", ("M_02",)), Output("M_22", ("M_22",)),
             Output("Minv_00", ("Minv_00",)), Output("Minv_20", ("Minv_20",)), Output("Minv_02", ("Minv_02",)),
@@ -101,11 +90,11 @@ PRESET_LIST = [
         anchor="heitz_ltc/ltc_magnitude.npy",
         anchor_axes={"mu": "heitz_ltc/axis_cos_theta64.npy", "alpha": "heitz_ltc/axis_alpha64.npy"},
     ),
-    LtcPreset(
+    Preset(
         name="heitz-ltc-rgba", peer="Heitz et al. 2016 LTC textures ltc_1 / ltc_2 (ltc_code, three.js)",
         description="the two RGBA textures: ltc_1 = Minv entries, ltc_2 = (magnitude, fresnel, -, sphere), 64 x 64",
         axes=lambda: {"mu": _texture_mu(), "alpha": _alpha()},
-        table="ltc", shadowing="correlated", spec_axes={"mu": "mu", "alpha": "alpha"},
+        table="ltc", shadowing="correlated", spec_axes={"mu": "mu", "alpha": "alpha"}, options=_OPTIONS,
         outputs=(
             Output("ltc1_r", ("Minv_00",)), Output("ltc1_g", ("Minv_20",)), Output("ltc1_b", ("Minv_02",)),
             Output("ltc1_a", ("Minv_22",)), Output("ltc2_r", ("magnitude",)), Output("ltc2_g", ("magnitude_fresnel",)),

@@ -70,6 +70,9 @@ class Preset:
     storage : str or None
         The engine's storage encoding (:data:`bsdf_tab.io.storage.ENCODINGS`: ``float16``,
         ``unorm16``, ...), used by the texture formats unless ``--precision`` says otherwise.
+    options : dict
+        The kind's own spec keys (``bsdf_tab.spec.KIND_OPTIONS``: ``amplitude`` of ``ltc``,
+        ``sheen_shadowing`` of ``sheen_albedo``), added to the source spec as they are.
     """
 
     name: str
@@ -88,6 +91,7 @@ class Preset:
     anchor_axes: dict = field(default_factory=dict)
     file_format: str | None = None
     storage: str | None = None
+    options: dict = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -104,6 +108,7 @@ class Preset:
         spec = {"table": self.table, "distribution": "ggx", "shadowing": self.shadowing, "axes": spec_axes}
         if self.fresnel is not None:
             spec["fresnel"] = {"type": self.fresnel}
+        spec.update(self.options)
         return spec
 
     def peer_axis_of(self, spec_axis: str) -> str:

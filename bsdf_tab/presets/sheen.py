@@ -16,8 +16,8 @@
   visibility (the Estevez-Kulla fitted Lambda, ``V_Sheen``): 32 x 32 at texel centres, float32.
   The Sample Viewer's shipped ``lut_sheen_E.png`` was not available to compare.
 
-Each preset subclasses :class:`~.recipe.Preset` only to add the sheen table's
-``sheen_shadowing`` (the shadowing choice) to its spec.
+Each preset subclasses :class:`~.recipe.Preset` only to leave the microfacet distribution and
+shadowing out of its spec; the sheen table's ``sheen_shadowing`` is in the preset's ``options``.
 """
 
 from __future__ import annotations
@@ -32,15 +32,13 @@ __all__ = ["PRESET_LIST", "SheenPreset"]
 
 @dataclass(frozen=True)
 class SheenPreset(Preset):
-    """A :class:`~.recipe.Preset` of a ``sheen_albedo`` table with its shadowing choice."""
-
-    sheen_shadowing: str = "fitted"
+    """A :class:`~.recipe.Preset` of a ``sheen_albedo`` table: no distribution or microfacet
+    shadowing (its ``sheen_shadowing`` choice is in ``options``)."""
 
     def spec(self, axes: dict) -> dict:
         spec = super().spec(axes)
         spec.pop("shadowing", None)
         spec.pop("distribution", None)
-        spec["sheen_shadowing"] = self.sheen_shadowing
         return spec
 
 
@@ -52,7 +50,7 @@ PRESET_LIST = [
         description="sheen albedo E, 128 x 128 [roughness, NoV] at texel centres, RGB16F (blue channel)",
         axes=lambda: {"roughness": unit_centers(128), "mu": unit_centers(128)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, sheen_shadowing="ashikhmin",
+        outputs=_E, options={"sheen_shadowing": "ashikhmin"},
         conventions={"distribution": "Charlie (Estevez and Kulla 2017), alpha = r^2",
                      "visibility": "V_Neubelt = 1 / (4 (NoL + NoV - NoL NoV)), unclamped",
                      "axes": "NoV_i = (i + 0.5)/128 (u), perceptual roughness r_j = (j + 0.5)/128 (v)",
@@ -67,7 +65,7 @@ PRESET_LIST = [
         "8-bit PNG",
         axes=lambda: {"roughness": unit_centers(1024), "mu": unit_centers(1024)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, sheen_shadowing="ashikhmin", clamp01=True,
+        outputs=_E, options={"sheen_shadowing": "ashikhmin"}, clamp01=True,
         conventions={"distribution": "Charlie, sheenRoughness clamped at 1e-6, alpha = r^2",
                      "visibility": "V_Ashikhmin = clamp(1 / (4 (NdotL + NdotV - NdotL NdotV)), 0, 1)",
                      "axes": "NdotV_i = (i + 0.5)/1024 (u), sheen roughness r_j = (j + 0.5)/1024 (v), as the GGX LUT",
@@ -83,7 +81,7 @@ PRESET_LIST = [
         "[roughness, NdotV] at texel centres",
         axes=lambda: {"roughness": unit_centers(32), "mu": unit_centers(32)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, sheen_shadowing="fitted",
+        outputs=_E, options={"sheen_shadowing": "fitted"},
         conventions={"distribution": "Charlie, alpha = sheenRoughness^2",
                      "visibility": "V_Sheen = clamp(1 / ((1 + Lambda(NdotV) + Lambda(NdotL)) 4 NdotV NdotL), 0, 1), "
                      "Lambda the Estevez-Kulla fit",

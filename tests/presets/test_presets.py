@@ -83,6 +83,25 @@ def test_ltc_preset_axes(name):
         np.testing.assert_allclose(axes[axis], values, rtol=1e-12, atol=1e-15)
 
 
+#: the kind's own spec keys each preset must bake with (docs/ltc.md, docs/sheen.md)
+KIND_OPTIONS = {"heitz-ltc": {"amplitude": "shading"}, "heitz-ltc-rgba": {"amplitude": "shading"},
+                "filament-dfg-cloth": {"sheen_shadowing": "ashikhmin"},
+                "gltf-charlie-lut": {"sheen_shadowing": "ashikhmin"},
+                "khr-sheen-E-fitted": {"sheen_shadowing": "fitted"}}
+
+
+@pytest.mark.parametrize("name", sorted(KIND_OPTIONS))
+def test_kind_options_reach_the_normalized_spec(name):
+    from bsdf_tab.spec import normalize_spec
+
+    preset = get_preset(name)
+    spec = preset.spec(preset.axes())
+    spec["axes"] = {axis: sorted(np.asarray(values).tolist()) for axis, values in spec["axes"].items()}  # as build_preset sorts them
+    spec = normalize_spec(spec)
+    for key, value in KIND_OPTIONS[name].items():
+        assert spec[key] == value, (name, key)
+
+
 def test_every_preset_has_expected_axes():
     from tests.presets.test_engine_presets import ENGINE_AXES  # the issue-15 engines, from their sources
 
