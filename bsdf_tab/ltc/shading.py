@@ -27,6 +27,7 @@ import warp as wp
 
 from ..model.ltc import ltc_minv, ltc_quad_integral
 from .exact import quad_integrals
+from .kernels import BatchLaunch, horizon_mass, ltc_density
 from ..integrate.runtime import resolve_device
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
@@ -150,22 +151,14 @@ def _polish_objective(
     if free_amp != 0:
         s = wp.exp(X[t, 4])
     det_s = x * w_ - y * z
-    nz = x / wp.max(wp.sqrt(x * x + y * y), wp.float64(1e-300))  # (x, y) = 0 only for a singular Minv
-    if det_s < zero:
-        nz = -nz
-    m_up = wp.max(wp.float64(0.5) * (one + nz), wp.float64(1e-300))  # > 0 unless the lobe is all below
-    amp = s / m_up
+    amp = s / horizon_mass(x, y, det_s)
     det = wp.abs(det_s) * _INV_PI
     acc = s - one  # a m_up - 1
     sphere = zero
     for k in range(L.shape[1]):
         wk = wn[b, k]
         if wk > zero:
-            d = L[b, k]
-            lx = x * d[0] + z * d[2]
-            lz = y * d[0] + w_ * d[2]
-            n2 = lx * lx + d[1] * d[1] + lz * lz  # > 0 for invertible Minv, |L| = 1
-            dens = wp.max(lz, zero) * det / (n2 * n2) * mf[b, k]
+            dens = ltc_density(x, y, z, w_, det, L[b, k]) * mf[b, k]
             acc += wk * wp.max(one - amp * dens, zero)
             sphere += wk * wp.max(one - dens, zero)
     minv = ltc_minv(x, y, z, w_)
@@ -202,40 +195,12 @@ class ShadingObjective:
         self.weight = float(weight)
         self.l1_weight = float(l1_weight)
         self.count = 0
-        self.device = resolve_device(device)
-        arr = lambda a, dt=wp.float64: wp.array(np.ascontiguousarray(a), dtype=dt, device=self.device)  # noqa: E731
-        self._inputs = [arr(L, wp.vec3d), arr(wn), arr(mf), arr(quads, wp.vec3d), arr(self.target)]
-        self._size = 0
-        self._grow(16 * B)
-
-    def _grow(self, n: int) -> None:
-        self._size = n
-        self._idx = wp.zeros(n, dtype=wp.int32, device=self.device)
-        self._X = wp.zeros((n, 5), dtype=wp.float64, device=self.device)
-        self._out = wp.zeros(n, dtype=wp.float64, device=self.device)
-        if self.device.is_cpu:  # host views of the same memory: no copies per call
-            self._idx_h, self._X_h, self._out_h = self._idx.numpy(), self._X.numpy(), self._out.numpy()
-        # a recorded launch: the arguments are packed once, each call only sets the dimension
-        self._cmd = wp.launch(_polish_objective, dim=1, device=self.device, record_cmd=True,
-                              inputs=self._inputs + [self._idx, self._X, self.weight, self.l1_weight, 1 if self.free else 0,
-                                                     self._out])
+        dev = resolve_device(device)
+        arr = lambda a, dt=wp.float64: wp.array(np.ascontiguousarray(a), dtype=dt, device=dev)  # noqa: E731
+        self._launch = BatchLaunch(_polish_objective, [arr(L, wp.vec3d), arr(wn), arr(mf), arr(quads, wp.vec3d),
+                                                       arr(self.target)],
+                                   [self.weight, self.l1_weight, 1 if self.free else 0], 5, dev, 16 * B)
 
     def __call__(self, idx, X):
-        n = int(idx.size)
-        self.count += n
-        if n > self._size:
-            self._grow(n)
-        X = np.asarray(X, dtype=np.float64)
-        if self.device.is_cpu:
-            self._idx_h[:n] = idx
-            self._X_h[:n, :X.shape[1]] = X
-        else:
-            Xp = np.zeros((self._size, 5))
-            Xp[:n, :X.shape[1]] = X
-            self._idx.assign(np.pad(idx.astype(np.int32), (0, self._size - n)))
-            self._X.assign(Xp)
-        self._cmd.set_dim(n)
-        self._cmd.launch()
-        if self.device.is_cpu:
-            return self._out_h[:n].copy()
-        return self._out.numpy()[:n]
+        self.count += int(idx.size)
+        return self._launch(idx, X)
