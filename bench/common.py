@@ -212,3 +212,15 @@ def parse_variants(texts) -> list[dict]:
             d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
         variants.append(d)
     return variants
+
+
+def stop_process(proc) -> None:
+    """Stop a child process we started (a server): SIGTERM, then SIGKILL after 10 s."""
+    import subprocess
+
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()

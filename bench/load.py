@@ -37,6 +37,9 @@ import time
 import urllib.request
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import stop_process  # noqa: E402
+
 HOST = "127.0.0.1"  # loopback only, never configurable
 OUT = Path(__file__).resolve().parent / "out"
 MAX_DURATION = 60.0
@@ -224,15 +227,6 @@ def start(cmd: list[str], port: int) -> subprocess.Popen:
             time.sleep(0.1)
 
 
-def stop(proc: subprocess.Popen) -> None:
-    proc.terminate()
-    try:
-        proc.wait(10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-
-
 def median_of(runs: list[dict]) -> dict:
     out = dict(runs[0])
     for k in ("requests_per_s", "p50_ms", "p99_ms", "mean_ms", "max_ms"):
@@ -301,7 +295,7 @@ def main(argv=None) -> int:
                 "service_p99_ms": svc["p99_ms"], "minimal_p99_ms": ref["p99_ms"],
                 "p99_ratio": round(svc["p99_ms"] / ref["p99_ms"], 3) if ref["p99_ms"] else None,
             })
-        stop(minimal)
+        stop_process(minimal)
         minimal = None
         if not args.no_cold:
             results.append(asyncio.run(cold_phase(port, args.cold, max(client_counts), duration)))
@@ -309,7 +303,7 @@ def main(argv=None) -> int:
     finally:
         for proc in (server, minimal):
             if proc is not None:
-                stop(proc)
+                stop_process(proc)
         shutil.rmtree(cache, ignore_errors=True)
     load_after = os.getloadavg()
 

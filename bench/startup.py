@@ -38,6 +38,9 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import stop_process  # noqa: E402
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "bench" / "out" / "startup.json"
 SMALL_SPEC = {"table": "albedo", "axes": {"mu": {"size": 8}, "alpha": {"size": 8}}, "tolerance": 1e-4}
@@ -101,12 +104,7 @@ def _serve(env: dict, tmp: Path, warmup: bool, root: Path = REPO_ROOT) -> tuple[
         # the child's CPU until now: read from /proc (it is still running)
         cpu = _proc_cpu(proc.pid)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        stop_process(proc)
         log.close()
     return wall, cpu
 
