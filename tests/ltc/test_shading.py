@@ -161,3 +161,23 @@ def test_shading_amplitude_deterministic_across_workers_and_blocks():
     np.testing.assert_array_equal(a["Minv_20"][1], 0.0)
     np.testing.assert_array_equal(a["Minv_02"][1], 0.0)
     np.testing.assert_array_equal(a["Minv_00"][1], 1.0)
+
+
+def test_shading_amplitude_in_the_spec_regimes():
+    """SPEC section 5 for the presets' amplitude: mu in {0, 1e-6, 1e-4, 1e-2, 1}, alpha in {0, 1e-6, 1e-4,
+    1e-3, 2}. Finite everywhere, the metrics in [0, 2] with the Dirac lobe (alpha = 0) flagged 2, E the
+    reference albedo, the amplitude s = magnitude m_up / E near 1 and the mirror limit E -> 1."""
+    mu, alpha = [0.0, 1e-6, 1e-4, 1e-2, 1.0], [0.0, 1e-6, 1e-4, 1e-3, 0.3, 2.0]
+    ch = bsdf_tab.tabulate({"table": "ltc", "amplitude": "shading", "axes": {"mu": mu, "alpha": alpha}}).channels
+    for name, v in ch.items():
+        assert np.isfinite(v).all(), name
+    for name in ("fit_l1", "fit_l1_clipped"):
+        assert ((ch[name] >= 0.0) & (ch[name] <= 2.0)).all(), name
+        assert (ch[f"{name}_err"][:, 0] == 2.0).all(), name
+    np.testing.assert_allclose(ch["E"][1:, 0], 1.0, atol=1e-6)  # mirror limit (F = 1), mu > 0
+    for i, j in [(3, 4), (4, 4), (4, 5), (2, 3)]:
+        E = ref.albedo(mu[i], alpha[j], "ggx", "correlated")
+        assert ch["E"][i, j] == pytest.approx(E.value, abs=ch["E_err"][i, j] + E.err + 1e-9)
+    pos = ch["E"] > 1e-12  # the amplitude is meaningful where there is light to shade
+    s = ch["magnitude"][pos] * ch["horizon"][pos] / ch["E"][pos]
+    assert ((s > 0.5) & (s < 2.0)).all(), s
