@@ -18,7 +18,11 @@ at i.m = sqrt(1 - eta^2), and the transmission horizon o_t.n = 0 at
 i.m = mu / (2 cos theta_m) + (1 - eta^2) cos theta_m / (2 mu) (eta < 1, where that root is valid). The inner phi integral is
 split at those points, each piece mapped by phi = a + (b - a)(3 t^2 - 2 t^3) (which smooths the
 square-root behaviour of Fresnel at the critical angle and of the horizons), and integrated by
-adaptive G7-K15. The outer v integral is adaptive G7-K15 too, started from the closed-form
+adaptive G7-K15 as a two-stage rule (issue 14, fourth round): the 7 Gauss nodes first, and G7
+is accepted with the error |G7 - I5| (I5 the interpolatory rule on 5 of those nodes, degree 5
+against G7's 13) where that fits the interval's share of the piece's tolerance; otherwise the
+8 Kronrod nodes are added and the interval is K15 with the estimate below (the 7 values reused,
+so a rejected first stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
 theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, and the
 critical-angle crossings).
 
@@ -51,23 +55,24 @@ down to 1e-10 below). The inner phi level (``err_model_inner`` 2) scales |K15 - 
 of G7) by min(1, ``err_safety`` r^``err_power``) = min(1, r^3), r the decay ratio of the last
 Legendre coefficients of the 15-node interpolant
 (:func:`bsdf_tab.integrate.quadrature.decay_ratio`): where the coefficients fall fast, K15 is
-resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|. Measured, not
-proven: on 1634 reference texels (``bench/accuracy_honesty.py``, tolerances 1e-2 .. 1e-7) no
-texel reports less than its true error and the worst true / reported ratio of the heuristic
-estimates is 0.59; the outer rule still compares K15 with G7 over 15 inner results, so an inner
+resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|; an accepted
+first stage reports |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`). Measured,
+not proven: on 1634 reference texels (``bench/accuracy_honesty.py``, tolerances 1e-2 .. 1e-7)
+no texel reports less than its true error and the worst true / reported ratio of the heuristic
+estimates is 0.46; the outer rule still compares K15 with G7 over 15 inner results, so an inner
 error the estimate misses perturbs the outer difference. The same estimate at the outer level,
-or r^6, reported errors below the true ones (docs/methods.md). Rule applications are capped per
-texel (``max_rules_outer``, ``max_rules_inner`` per phi piece): a texel that cannot reach the
-tolerance within the cap reports its large estimate instead of a wrong small one.
+r^6, or the two-stage rule at the outer level reported errors below the true ones
+(docs/methods.md). Rule applications are capped per texel (``max_rules_outer``,
+``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
+reports its large estimate instead of a wrong small one.
 
 Where the pieces live: the integrand, the mirror limit alpha = 0, the mass bound and the
 thresholds of the breakpoints (critical angle, transmission floor) in
-:mod:`bsdf_tab.integrate.integrand` (the integrand is shared with the fixed-effort methods); the D cos CDF
+:mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the D cos CDF
 v(theta_m) and its inverse in each distribution's module (:func:`bsdf_tab.model.dcos_tan_of_v`,
-:func:`bsdf_tab.model.dcos_v_of_theta`); the G7-K15 constants, the error model and the global
-bisection (one routine, instantiated for the inner phi and the outer v level) in
-:mod:`bsdf_tab.integrate.quadrature`. This module holds the two rules, the breakpoints, the
-kernel and its launcher.
+:func:`bsdf_tab.model.dcos_v_of_theta`); the G7-K15 and I5 constants, the error models and the
+global bisection (one routine for both levels) in :mod:`bsdf_tab.integrate.quadrature`. This
+module holds the two rules, the breakpoints, the kernel and its launcher.
 
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
 Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
@@ -76,6 +81,7 @@ Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import warp as wp
@@ -85,13 +91,12 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
     MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, integrand_phi,
     mass_bound, tir_eta, transmission_breaks, vec24d, mode_id,
 )
-from .quadrature import WG3_D, WG7_D, WGK7_D, WGK_D, XGK7_D, XGK_D, decay_ratio, vec16d, gk_error, gk_error_decay, make_global_bisection
+from .quadrature import WG7_D, WGK_D, XGK_D, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-_vec5d = wp.types.vector(length=5, dtype=wp.float64)
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)
 _vec16d = vec16d
 _vec24d = vec24d
@@ -109,14 +114,25 @@ def _phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
 
 
 @wp.func
-def _gk_phi(p: TexelParams, x: _vec5d, ta: wp.float64, tb: wp.float64):
-    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b)
-    (cos, sin, tan of theta_m and the piece). Returns (K, error, 15 evaluations)."""
-    cm = x[0]
-    sm = x[1]
-    tm = x[2]
-    a = x[3]
-    b = x[4]
+def _phi_node(p: TexelParams, x: _vec6d, ctr: wp.float64, hl: wp.float64, j: wp.int32):
+    # the integrand at node j (j < 8: +XGK[j], else -XGK[j - 8]) of [ctr - hl, ctr + hl] in t
+    jj = j
+    sgn = wp.float64(1.0)
+    if j >= 8:
+        jj = j - 8
+        sgn = wp.float64(-1.0)
+    t = ctr + sgn * hl * XGK_D[jj]
+    s = t * t * (wp.float64(3.0) - wp.float64(2.0) * t)
+    ds = wp.float64(6.0) * t * (wp.float64(1.0) - t)
+    return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
+
+
+@wp.func
+def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
+    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
+    thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
+    error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
+    :func:`first_stage`'s error where that is <= thr (tb - ta); else the 8 Kronrod nodes too."""
     half = wp.float64(0.5)
     ctr = half * (ta + tb)
     hl = half * (tb - ta)
@@ -125,17 +141,24 @@ def _gk_phi(p: TexelParams, x: _vec5d, ta: wp.float64, tb: wp.float64):
     f0 = _vec16d()
     f1 = _vec16d()
     for j in range(15):
+        if j % 2 == 1:
+            f = _phi_node(p, x, ctr, hl, j)
+            f0[j] = f[0]
+            f1[j] = f[1]
+    if p.inner_first > 0:
+        g, d = first_stage(f0, f1, hl, p.inner_first)
+        if wp.max(d[0], d[1]) <= x[5] * (tb - ta):
+            return g, d, int(7)
+    for j in range(15):
+        if j % 2 == 0:
+            f = _phi_node(p, x, ctr, hl, j)
+            f0[j] = f[0]
+            f1[j] = f[1]
+    for j in range(15):
         jj = j
-        sgn = wp.float64(1.0)
         if j >= 8:
             jj = j - 8
-            sgn = wp.float64(-1.0)
-        t = ctr + sgn * hl * XGK_D[jj]
-        s = t * t * (wp.float64(3.0) - wp.float64(2.0) * t)
-        ds = wp.float64(6.0) * t * (wp.float64(1.0) - t)
-        f = integrand_phi(p, cm, sm, tm, a + (b - a) * s) * (ds * (b - a))
-        f0[j] = f[0]
-        f1[j] = f[1]
+        f = wp.vec2d(f0[j], f1[j])
         rk += WGK_D[jj] * f
         rg += WG7_D[jj] * f
     mean = rk * half
@@ -157,19 +180,8 @@ _adaptive_piece = make_global_bisection(_gk_phi)
 
 
 @wp.func
-def _insert_sorted(v: _vec6d, n: wp.int32, x: wp.float64):
-    # insertion into the first n sorted entries (n < 6)
-    i = n
-    while i > 0 and v[i - 1] > x:
-        v[i] = v[i - 1]
-        i -= 1
-    v[i] = x
-    return v
-
-
-@wp.func
-def _insert_sorted24(v: _vec24d, n: wp.int32, x: wp.float64):
-    # insertion into the first n sorted entries (n < 24)
+def _insert_sorted(v: Any, n: wp.int32, x: wp.float64):
+    # insertion into the first n sorted entries (n < the vector's length)
     i = n
     while i > 0 and v[i - 1] > x:
         v[i] = v[i - 1]
@@ -243,8 +255,9 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
             # phi increases as i.m decreases: this piece and all later ones are empty
             break
         if b > a:
-            r, e, used, used_ref = _adaptive_piece(p, _vec5d(cm, sm, tm, a, b), wp.vec2d(zero, one), 1,
-                                                   tol * (b - a) / pi, max_rules, int(0))
+            tp = tol * (b - a) / pi
+            r, e, used, used_ref = _adaptive_piece(p, _vec6d(cm, sm, tm, a, b, p.first_share * tp),
+                                                   wp.vec2d(zero, one), 1, tp, max_rules, int(0))
             total += r
             err += e
             rules += used
@@ -271,25 +284,14 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
     f0 = _vec16d()
     f1 = _vec16d()
     rules = wp.vec2i(0, 0)
-    # G7-K15, or G3-K7 (outer_nodes 7): nodes j < half at +x, the others at -x
-    nn = int(15)
-    half_n = int(8)
-    xs = XGK_D
-    wk = WGK_D
-    wg = WG7_D
-    if p.outer_nodes == 7:
-        nn = 7
-        half_n = 4
-        xs = XGK7_D
-        wk = WGK7_D
-        wg = WG3_D
-    for j in range(nn):
+    for j in range(15):
+        # nodes j < 8 at +XGK[j], the others at -XGK[j - 8]
         jj = j
         sgn = one
-        if j >= half_n:
-            jj = j - half_n
+        if j >= 8:
+            jj = j - 8
             sgn = -one
-        v = ctr + sgn * hl * xs[jj]
+        v = ctr + sgn * hl * XGK_D[jj]
         tm = dcos_tan_of_v(v, p.alpha, p.dist)
         cm = one / wp.sqrt(one + tm * tm)
         sm = tm * cm
@@ -299,18 +301,18 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
         f = f * jac
         f0[j] = f[0]
         f1[j] = f[1]
-        rk += wk[jj] * f
-        rg += wg[jj] * f
-        ei += wk[jj] * jac * e
+        rk += WGK_D[jj] * f
+        rg += WG7_D[jj] * f
+        ei += WGK_D[jj] * jac * e
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for j in range(nn):
+    for j in range(15):
         jj = j
-        if j >= half_n:
-            jj = j - half_n
-        resasc += wk[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+        if j >= 8:
+            jj = j - 8
+        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
     est = gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl
-    if p.err_model == 2 and nn == 15:
+    if p.err_model == 2:
         r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
         est = gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power) + ei * hl
     bnd = mass_bound(p, va, vb)
@@ -350,7 +352,8 @@ def texel_kernel(
     max_dtheta: wp.float64,
     err_floor: wp.float64,
     bound_share: wp.float64,
-    outer_nodes: wp.int32,
+    inner_first: wp.int32,
+    first_share: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -369,7 +372,8 @@ def texel_kernel(
     p.err_safety = err_safety
     p.err_power = err_power
     p.bound_share = bound_share
-    p.outer_nodes = outer_nodes
+    p.inner_first = inner_first
+    p.first_share = first_share
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     mu = p.mu
@@ -401,7 +405,7 @@ def texel_kernel(
     for q in range(ncand):
         x = cands[q]
         if x > zero and x < hp:
-            th = _insert_sorted24(th, nt, x)
+            th = _insert_sorted(th, nt, x)
             nt += 1
     v_end = one
     if mode != MODE_DIELECTRIC:
@@ -511,7 +515,8 @@ def integrate_texels(
     err_power: float = 3.0,
     max_dtheta: float | None = None,
     bound_share: float | None = None,
-    outer_nodes: int = 15,
+    inner_first: int = 5,
+    first_share: float = 1.0,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -534,8 +539,10 @@ def integrate_texels(
         r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3). ``bound_share``: the
         share of the budget for the D tail left out under its mass bound (None: 0.25 at
         tolerances >= 1e-4, 0 below; 0: none left out, the bound still caps each outer rule's
-        estimate; < 0: no bounds, the method before issue 14's third round). ``outer_nodes``: 15
-        (G7-K15, the default) or 7 (G3-K7) nodes of the outer rule.
+        estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the inner two-stage rule's first estimate (5, the
+        default: |G7 - I5|; 3: the 3-node rule, |G7 - I3|; 0: K15 always, the method before
+        issue 14's fourth round); ``first_share``: the share of an interval's tolerance that an
+        accepted first stage may report (1).
 
     Returns
     -------
@@ -577,7 +584,7 @@ def integrate_texels(
                 idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
                 float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta), err_floor,
-                float(bound_share), int(outer_nodes), value, error, cost, detail,
+                float(bound_share), int(inner_first), float(first_share), value, error, cost, detail,
             ],
             device=dev,
         )

@@ -75,7 +75,8 @@ class TexelParams:
     err_model_inner: wp.int32  # adaptive only: the inner phi level's error model
     err_safety: wp.float64  # adaptive only: err_model 2's safety factor
     err_power: wp.float64  # adaptive only: err_model 2's power of the decay ratio
-    outer_nodes: wp.int32  # adaptive only: 15 (G7-K15) or 7 (G3-K7) nodes of the outer rule
+    inner_first: wp.int32  # adaptive only: the inner two-stage rule's first estimate (0: off; 5, 3)
+    first_share: wp.float64  # adaptive only: the share of an interval's tolerance the first stage may use
     bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 
 

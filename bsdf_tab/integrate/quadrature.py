@@ -39,12 +39,11 @@ WG7 = np.array([
     0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
     0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327,
 ])
-# the Gauss-Kronrod 7-point rule (Kronrod's extension of Gauss 3), the same layout padded to 8
-# (the adaptive method's cheaper outer rule, ``outer_nodes=7``; exact to degree 11 and 5)
-XGK7 = np.array([0.9604912687080202, 0.7745966692414834, 0.4342437493468026, 0.0, 0.0, 0.0, 0.0, 0.0])
-WGK7 = np.array([0.1046562260264672, 0.2684880898683334, 0.4013974147759622, 0.4509165386584741,
-                 0.0, 0.0, 0.0, 0.0])
-WG3 = np.array([0.0, 0.5555555555555556, 0.0, 0.8888888888888888, 0.0, 0.0, 0.0, 0.0])
+# the interpolatory rule on five of the seven Gauss nodes (0, +-XGK[3], +-XGK[1]; exact to
+# degree 5, positive weights), same layout: |G7 - I5| is the two-stage rule's first estimate
+# (:func:`first_stage`); and on three of them (0, +-XGK[3]; degree 3)
+WI5 = np.array([0.0, 0.05286019325775858, 0.0, 0.5196089009754706, 0.0, 0.0, 0.0, 0.8550618115335416])
+WI3 = np.array([0.0, 0.0, 0.0, 0.6062055513772254, 0.0, 0.0, 0.0, 0.7875888972455492])
 # all 15 nodes: j < 8 at +XGK[j], j >= 8 at -XGK[j - 8] (the device loops' order)
 GK_X = np.concatenate([XGK, -XGK[:7]])
 GK_WK = np.concatenate([WGK, WGK[:7]])
@@ -54,9 +53,8 @@ vec8d = wp.types.vector(length=8, dtype=wp.float64)
 XGK_D = wp.constant(vec8d(*XGK.tolist()))
 WGK_D = wp.constant(vec8d(*WGK.tolist()))
 WG7_D = wp.constant(vec8d(*WG7.tolist()))
-XGK7_D = wp.constant(vec8d(*XGK7.tolist()))
-WGK7_D = wp.constant(vec8d(*WGK7.tolist()))
-WG3_D = wp.constant(vec8d(*WG3.tolist()))
+WI5_D = wp.constant(vec8d(*WI5.tolist()))
+WI3_D = wp.constant(vec8d(*WI3.tolist()))
 
 # Legendre coefficients of the degree-14 interpolant at the 15 nodes (orthonormal basis on
 # [-1, 1], nodes in GK_X order): rows k = 9 .. 14 of the inverse Vandermonde matrix. Their
@@ -115,6 +113,29 @@ def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, 
         e = d * wp.min(wp.float64(1.0), safety * wp.pow(r[c], power))
         out[c] = wp.max(e, wp.float64(1.1e-14) * wp.abs(rk[c]))
     return out
+
+
+@wp.func
+def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32):
+    """The first stage of the two-stage rule: G7 from the 7 Gauss nodes (odd j in the 15-node
+    order of ``f0``, ``f1``) and its error |G7 - I| (I: :data:`WI5` for ``which`` 5, else
+    :data:`WI3`, on the same nodes), both times the half length ``hl``; the error floored at 50 ulp
+    of |G7|. |G7 - I| is the error of I (degree 5 or 3), far above G7's own (degree 13) where
+    the function is smooth. Returns (G7, error)."""
+    g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    q = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        if j % 2 == 1:
+            f = wp.vec2d(f0[j], f1[j])
+            g += WG7_D[j % 8] * f
+            if which == 5:
+                q += WI5_D[j % 8] * f
+            else:
+                q += WI3_D[j % 8] * f
+    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for c in range(2):
+        out[c] = wp.max(wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
+    return g * hl, out
 
 
 STACK = 64
