@@ -132,7 +132,7 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
     """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
     thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
     error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
-    :func:`first_stage`'s error where that is <= thr (tb - ta); else the 8 Kronrod nodes too."""
+    :func:`first_stage`'s error where that is <= thr (tb - ta) and G7 != 0; else the 8 Kronrod nodes."""
     half = wp.float64(0.5)
     ctr = half * (ta + tb)
     hl = half * (tb - ta)
@@ -147,7 +147,8 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
             f1[j] = f[1]
     if p.inner_first > 0:
         g, d = first_stage(f0, f1, hl, p.inner_first)
-        if wp.max(d[0], d[1]) <= x[5] * (tb - ta):
+        # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
+        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(7)
     for j in range(15):
         if j % 2 == 0:
@@ -241,9 +242,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
             nc += 1
     # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
     # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
-    c_floor = cands[1]
-    if p.mode == MODE_DIELECTRIC:
-        c_floor = wp.min(c_floor, t_floor)
+    c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(cands[1], t_floor), cands[1])
     a = zero
     rules = int(0)
     rules_ref = int(0)
@@ -251,8 +250,9 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
         b = pi
         if q < nc:
             b = cuts[q]
-        if p.mu * cm + ss * wp.cos(a) <= c_floor:
-            # phi increases as i.m decreases: this piece and all later ones are empty
+        if p.mu * cm + ss * wp.cos(a) <= c_floor + wp.float64(1.0e-12):
+            # i.m falls as phi grows: this piece and all later ones are empty (1e-12: a cut's
+            # rounding leaves i.m(a) just above c_floor, and then a piece of zeros)
             break
         if b > a:
             tp = tol * (b - a) / pi

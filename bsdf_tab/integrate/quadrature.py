@@ -39,11 +39,23 @@ WG7 = np.array([
     0.0, 0.129484966168869693270611432679082, 0.0, 0.279705391489276667901467771423780,
     0.0, 0.381830050505118944950369775488975, 0.0, 0.417959183673469387755102040816327,
 ])
-# the interpolatory rule on five of the seven Gauss nodes (0, +-XGK[3], +-XGK[1]; exact to
-# degree 5, positive weights), same layout: |G7 - I5| is the two-stage rule's first estimate
-# (:func:`first_stage`); and on three of them (0, +-XGK[3]; degree 3)
-WI5 = np.array([0.0, 0.05286019325775858, 0.0, 0.5196089009754706, 0.0, 0.0, 0.0, 0.8550618115335416])
-WI3 = np.array([0.0, 0.0, 0.0, 0.6062055513772254, 0.0, 0.0, 0.0, 0.7875888972455492])
+
+
+def _interpolatory(keep):
+    """Weights of the symmetric interpolatory rule on the nodes +-XGK[keep] (centre included),
+    in the same layout: exact for the even monomials up to its size (and all odd ones)."""
+    x = XGK[keep]
+    a = np.array([[2.0 * xi**k if xi != 0.0 else float(k == 0) for xi in x] for k in range(0, 2 * len(x), 2)])
+    w = np.zeros(8)
+    w[keep] = np.linalg.solve(a, 2.0 / np.arange(1.0, 2.0 * len(x), 2.0))
+    return w
+
+
+# the interpolatory rules on five of the seven Gauss nodes (0, +-XGK[3], +-XGK[1]; exact to
+# degree 5, positive weights) and on three (0, +-XGK[3]; degree 3): |G7 - I5| is the two-stage
+# rule's first estimate (:func:`first_stage`)
+WI5 = _interpolatory([1, 3, 7])
+WI3 = _interpolatory([3, 7])
 # all 15 nodes: j < 8 at +XGK[j], j >= 8 at -XGK[j - 8] (the device loops' order)
 GK_X = np.concatenate([XGK, -XGK[:7]])
 GK_WK = np.concatenate([WGK, WGK[:7]])
