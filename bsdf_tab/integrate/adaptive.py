@@ -32,8 +32,10 @@ for the outer one). The outer integral starts from the breakpoints above, each p
 them cut into equal parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances
 >= 1e-5) and no longer than ``max_piece`` = 1/4 in v: the v map packs theta_m >> alpha into a
 sliver near v = 1, where a single rule could otherwise step over the horizon structure
-unnoticed (``n_fixed`` fixed angles theta_m = k pi/16 were the floor before issue 14's second
-round; docs/methods.md has the measurements behind every constant).
+unnoticed. Rough texels (alpha >= ``rough_alpha`` = 0.3, tolerances >= 1e-4), whose tail is
+not packed, start from parts <= pi/4 and pieces <= 1/2 (issue 14, fourth round). ``n_fixed``
+fixed angles theta_m = k pi/16 were the floor before issue 14's second round; docs/methods.md
+has the measurements behind every constant.
 
 The D tail (issue 14, third round): :func:`bsdf_tab.integrate.integrand.mass_bound` is a
 rigorous upper bound of the outer integral over a piece of v (the piece's D cos mass, closed in
@@ -81,15 +83,14 @@ Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import warp as wp
 
 from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
-    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, integrand_phi,
-    mass_bound, tir_eta, transmission_breaks, vec24d, mode_id,
+    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, insert_sorted, integrand_phi,
+    mass_bound, phi_of_c, tir_eta, transmission_breaks, vec24d, mode_id,
 )
 from .quadrature import WG7_D, WGK_D, XGK_D, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
@@ -104,13 +105,6 @@ _vec48d = wp.types.vector(length=48, dtype=wp.float64)
 
 _PI = wp.constant(wp.float64(math.pi))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
-
-
-@wp.func
-def _phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
-    # invert i.m = sin_i sm cos(phi) + mu cm for phi in [0, pi]
-    x = (cb - p.mu * cm) / (p.sin_i * sm)
-    return wp.acos(wp.clamp(x, wp.float64(-1.0), wp.float64(1.0)))
 
 
 @wp.func
@@ -181,17 +175,6 @@ _adaptive_piece = make_global_bisection(_gk_phi)
 
 
 @wp.func
-def _insert_sorted(v: Any, n: wp.int32, x: wp.float64):
-    # insertion into the first n sorted entries (n < the vector's length)
-    i = n
-    while i > 0 and v[i - 1] > x:
-        v[i] = v[i - 1]
-        i -= 1
-    v[i] = x
-    return v
-
-
-@wp.func
 def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
            max_rules: wp.int32):
     """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
@@ -238,7 +221,7 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
     for q in range(ncand):
         cb = cands[q]
         if cb > c_min and cb < c_max:
-            cuts = _insert_sorted(cuts, nc, _phi_of_c(cb, p, cm, sm))
+            cuts = insert_sorted(cuts, nc, phi_of_c(cb, p, cm, sm))
             nc += 1
     # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
     # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
@@ -350,6 +333,7 @@ def texel_kernel(
     err_safety: wp.float64,
     err_power: wp.float64,
     max_dtheta: wp.float64,
+    rough: wp.vec3d,
     err_floor: wp.float64,
     bound_share: wp.float64,
     inner_first: wp.int32,
@@ -373,6 +357,10 @@ def texel_kernel(
     p.err_power = err_power
     p.bound_share = bound_share
     p.inner_first = inner_first
+    if p.alpha >= rough[0]:
+        # a rough texel's D tail is not packed into a sliver of v: the coarser floor rough[1:]
+        max_dtheta = rough[1]
+        max_piece = rough[2]
     p.first_share = first_share
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
@@ -405,7 +393,7 @@ def texel_kernel(
     for q in range(ncand):
         x = cands[q]
         if x > zero and x < hp:
-            th = _insert_sorted(th, nt, x)
+            th = insert_sorted(th, nt, x)
             nt += 1
     v_end = one
     if mode != MODE_DIELECTRIC:
@@ -514,6 +502,9 @@ def integrate_texels(
     err_safety: float = 1.0,
     err_power: float = 3.0,
     max_dtheta: float | None = None,
+    rough_alpha: float | None = None,
+    rough_dtheta: float = math.pi / 4,
+    rough_piece: float = 0.5,
     bound_share: float | None = None,
     inner_first: int = 5,
     first_share: float = 1.0,
@@ -534,7 +525,9 @@ def integrate_texels(
         to the inner phi integrals (0.7; 0.25 before issue 14's second round), the longest initial outer piece in v (0.25), the
         number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
         breakpoints (0; 7 before issue 14's second round), and the widest initial outer piece in
-        theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut). ``err_model_inner``: the inner level's error model
+        theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut); for texels with
+        alpha >= ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4, else none) ``rough_dtheta``
+        (pi/4) and ``rough_piece`` (1/2) instead. ``err_model_inner``: the inner level's error model
         (-1: ``err_model``; 2, the default: |K15 - G7| times min(1, err_safety r^err_power),
         r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3). ``bound_share``: the
         share of the budget for the D tail left out under its mass bound (None: 0.25 at
@@ -564,6 +557,11 @@ def integrate_texels(
     if max_dtheta is None:
         # the floor follows the tolerance: pi/8 parts at tolerances >= 1e-5, pi/16 below
         max_dtheta = math.pi / 8 if tol >= 1e-5 else math.pi / 16
+    if rough_alpha is None:
+        # rough texels (alpha >= 0.3) get parts <= pi/4 in theta_m and pieces <= 1/2 in v at
+        # tolerances >= 1e-4 (below, the finer floor is cheaper: docs/methods.md)
+        rough_alpha = 0.3 if tol >= 1e-4 else math.inf
+    rough = (float(rough_alpha), float(rough_dtheta), float(rough_piece))
     if bound_share is None:
         # D tails left out at tolerances >= 1e-4 (-4 .. -9% evaluations there; ~1% below, where
         # a missing tail of up to tol / 4 would only move values that are otherwise ~exact)
@@ -583,7 +581,8 @@ def integrate_texels(
             inputs=[
                 idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
-                float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta), err_floor,
+                float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
+                wp.vec3d(*rough), err_floor,
                 float(bound_share), int(inner_first), float(first_share), value, error, cost, detail,
             ],
             device=dev,

@@ -26,6 +26,7 @@ grid and cosine-sampled Monte Carlo).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import warp as wp
 
@@ -338,6 +339,24 @@ def o_terms(p: TexelParams, o: wp.vec3d):
 
 
 # the thresholds of the adaptive method's breakpoints (total internal reflection, transmission)
+
+
+@wp.func
+def phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
+    """The phi in [0, pi] where i.m = sin_i sin(theta_m) cos(phi) + mu cos(theta_m) equals ``cb``."""
+    x = (cb - p.mu * cm) / (p.sin_i * sm)
+    return wp.acos(wp.clamp(x, wp.float64(-1.0), wp.float64(1.0)))
+
+
+@wp.func
+def insert_sorted(v: Any, n: wp.int32, x: wp.float64):
+    """``x`` inserted into the first n sorted entries of the vector ``v`` (n < its length)."""
+    i = n
+    while i > 0 and v[i - 1] > x:
+        v[i] = v[i - 1]
+        i -= 1
+    v[i] = x
+    return v
 
 
 @wp.func
