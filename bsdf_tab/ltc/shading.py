@@ -26,18 +26,23 @@ import numpy as np
 import warp as wp
 
 from ..model.ltc import ltc_minv, ltc_quad_integral
-from .exact import quad_integrals
+from .exact import RULE as EXACT_RULE, quad_integrals
 from .kernels import BatchLaunch, horizon_mass, ltc_density
 from ..integrate.runtime import resolve_device
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-__all__ = ["FIT_QUADS", "ShadingObjective", "fit_quads"]
+__all__ = ["FIT_QUADS", "LN_S_MAX", "S_RANGE", "ShadingObjective", "fit_quads"]
 
 #: Quad lights per texel in the polish (half about the mirror direction, half over the hemisphere).
 FIT_QUADS = 16
 _INV_PI = wp.constant(wp.float64(0.31830988618379067154))
+#: The polish's amplitude s is kept in [1 / S_RANGE, S_RANGE] (ln s clamped): where the fit quads see
+#: no light (a needle at the horizon, mu and alpha -> 0) the shading term alone would drive s to 0.
+S_RANGE = 1.5
+LN_S_MAX = math.log(S_RANGE)
+_LN_S_MAX = wp.constant(wp.float64(LN_S_MAX))
 _PRIMES = (2, 3, 5, 7, 11, 13, 17)
 
 
@@ -130,12 +135,17 @@ def _polish_objective(
     L: wp.array2d(dtype=wp.vec3d),
     wn: wp.array2d(dtype=wp.float64),
     mf: wp.array2d(dtype=wp.float64),
+    Lc: wp.array2d(dtype=wp.vec3d),
+    wnc: wp.array2d(dtype=wp.float64),
+    mfc: wp.array2d(dtype=wp.float64),
+    limit: wp.array(dtype=wp.float64),
     quads: wp.array3d(dtype=wp.vec3d),
     target: wp.array2d(dtype=wp.float64),
     idx: wp.array(dtype=wp.int32),
     X: wp.array2d(dtype=wp.float64),
     weight: wp.float64,
     l1_weight: wp.float64,
+    penalty: wp.float64,
     free_amp: int,
     out: wp.array(dtype=wp.float64),
 ):
@@ -149,7 +159,7 @@ def _polish_objective(
     zero = wp.float64(0.0)
     s = one
     if free_amp != 0:
-        s = wp.exp(X[t, 4])
+        s = wp.exp(wp.clamp(X[t, 4], -_LN_S_MAX, _LN_S_MAX))
     det_s = x * w_ - y * z
     amp = s / horizon_mass(x, y, det_s)
     det = wp.abs(det_s) * _INV_PI
@@ -161,13 +171,29 @@ def _polish_objective(
             dens = ltc_density(x, y, z, w_, det, L[b, k]) * mf[b, k]
             acc += wk * wp.max(one - amp * dens, zero)
             sphere += wk * wp.max(one - dens, zero)
+    excess = zero
+    if penalty > zero:
+        # the constraint fit_l1 <= limit, fit_l1 on the constraint's own nodes
+        cons = zero
+        for k in range(Lc.shape[1]):
+            wk = wnc[b, k]
+            if wk > zero:
+                cons += wk * wp.max(one - ltc_density(x, y, z, w_, det, Lc[b, k]) * mfc[b, k], zero)
+        excess = wp.max(cons - limit[b], zero)
     minv = ltc_minv(x, y, z, w_)
     nq = quads.shape[1]
     sh = zero
     for k in range(nq):
         i = ltc_quad_integral(minv, quads[b, k, 0], quads[b, k, 1], quads[b, k, 2], quads[b, k, 3])
         sh += wp.abs(amp * i - target[b, k])
-    out[t] = wp.max(acc, zero) + l1_weight * sphere + weight * sh / wp.float64(nq)
+    out[t] = wp.max(acc, zero) + l1_weight * sphere + weight * sh / wp.float64(nq) + penalty * excess
+
+
+def _normalized(nodes):
+    """(L, wn, mf) of a lobe quadrature (L, f, w): weights 2 w / mass and mass / f, as :class:`bsdf_tab.ltc.fit.Objective`."""
+    L, f, w = nodes
+    mass = w.sum(axis=1, keepdims=True)  # the rule's E: > 0 for alpha > 0
+    return L, 2.0 * w / mass, np.where(f > 0.0, mass / np.where(f > 0.0, f, 1.0), 0.0)  # E / f_k
 
 
 class ShadingObjective:
@@ -176,30 +202,34 @@ class ShadingObjective:
 
     ``E`` (B,) normalizes the exact quad integrals T_k (the lobe T = f_r cos / E); ``nodes`` are the
     lobe's quadrature (:func:`bsdf_tab.ltc.lobe.lobe_nodes`) for the L1 term, normalized by the rule's
-    own mass as in :class:`bsdf_tab.ltc.fit.Objective`.
+    own mass as in :class:`bsdf_tab.ltc.fit.Objective`. ``constraint`` = (nodes, limit (B,), penalty) adds
+    penalty x max(fit_l1 - limit, 0), fit_l1 the sphere metric on those nodes (a soft constraint
+    fit_l1 <= limit).
     """
 
     def __init__(self, dist, shadowing, mu, alpha, E, nodes, weight: float, free_amplitude: bool = False,
-                 count: int = FIT_QUADS, device=None, l1_weight: float = 0.0):
-        L, f, w = nodes
-        mass = w.sum(axis=1, keepdims=True)  # the rule's E: > 0 for alpha > 0
-        wn = 2.0 * w / mass
-        mf = np.where(f > 0.0, mass / np.where(f > 0.0, f, 1.0), 0.0)  # E / f_k
+                 count: int = FIT_QUADS, device=None, l1_weight: float = 0.0, constraint=None, exact_rule=None):
+        L, wn, mf = _normalized(nodes)
         mu = np.atleast_1d(np.asarray(mu, dtype=np.float64))
         quads = fit_quads(mu, count)
         B = len(mu)
         T = quad_integrals(quads.reshape(-1, 4, 3), np.repeat(mu, count), np.repeat(alpha, count), dist, shadowing,
-                           device=device).reshape(B, count)
+                           rule=exact_rule or EXACT_RULE, device=device).reshape(B, count)
         self.target = T / np.asarray(E, dtype=np.float64)[:, None]  # E > 0 for alpha > 0
         self.free = bool(free_amplitude)
         self.weight = float(weight)
         self.l1_weight = float(l1_weight)
+        if constraint is None:
+            Lc, wnc, mfc, limit, self.penalty = L[:, :1], wn[:, :1], mf[:, :1], np.zeros(B), 0.0  # unused: penalty 0
+        else:
+            (Lc, wnc, mfc), limit, self.penalty = _normalized(constraint[0]), constraint[1], float(constraint[2])
         self.count = 0
         dev = resolve_device(device)
         arr = lambda a, dt=wp.float64: wp.array(np.ascontiguousarray(a), dtype=dt, device=dev)  # noqa: E731
-        self._launch = BatchLaunch(_polish_objective, [arr(L, wp.vec3d), arr(wn), arr(mf), arr(quads, wp.vec3d),
-                                                       arr(self.target)],
-                                   [self.weight, self.l1_weight, 1 if self.free else 0], 5, dev, 16 * B)
+        self._launch = BatchLaunch(_polish_objective, [arr(L, wp.vec3d), arr(wn), arr(mf), arr(Lc, wp.vec3d), arr(wnc),
+                                                       arr(mfc), arr(np.asarray(limit, dtype=np.float64)),
+                                                       arr(quads, wp.vec3d), arr(self.target)],
+                                   [self.weight, self.l1_weight, self.penalty, 1 if self.free else 0], 5, dev, 16 * B)
 
     def __call__(self, idx, X):
         self.count += int(idx.size)

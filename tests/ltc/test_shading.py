@@ -113,6 +113,30 @@ def test_polish_objective_kernel_matches_numpy():
     want = (clipped_l1_metric(d, f, w, mass, amp, upper_mass(minv)) + 2.0 * l1_metric(d, f, w, mass)
             + 50.0 * np.mean(np.abs(est - T), axis=1))
     np.testing.assert_allclose(got, want, rtol=1e-6)
+    # the soft constraint: + penalty x max(fit_l1 on its own nodes - limit, 0), the limit met at one texel only
+    cnodes = lobe_nodes("ggx", "correlated", mu, alpha, 16, 12, 2, 2)
+    Lc, fc, wc = cnodes
+    sphere = l1_metric(density(minv, Lc), fc, wc, wc.sum(axis=1))
+    limit = np.array([0.9 * sphere[0], 1.1 * sphere[1]])
+    cons = ShadingObjective("ggx", "correlated", mu, alpha, E, nodes, 50.0, True, 8, l1_weight=2.0,
+                            constraint=(cnodes, limit, 300.0))
+    np.testing.assert_allclose(cons(np.arange(2), X), want + 300.0 * np.maximum(sphere - limit, 0.0), rtol=1e-6)
+    assert cons(np.arange(2), X)[0] > got[0] + 1.0 and cons(np.arange(2), X)[1] == pytest.approx(got[1], rel=1e-12)
+
+
+def test_shading_polish_keeps_fit_l1_within_its_slack():
+    """Above the grazing rows the polish may raise the sphere metric by at most SHADING["l1_slack"] (relative)
+    over the horizon fit's: the tied texels near normal incidence and at high roughness, where the fit metric
+    goal is decided by 1e-4 (docs/ltc.md). Checked on the table's own metric rule (not the constraint's)."""
+    from bsdf_tab.ltc.fit import SHADING
+
+    spec = {"table": "ltc", "axes": {"mu": [0.5, 0.9, 0.99], "roughness": [0.3, 0.6, 0.95]}}
+    pol = bsdf_tab.tabulate({**spec, "amplitude": "shading"}).channels
+    hor = bsdf_tab.tabulate(spec).channels
+    rel = (pol["fit_l1"] - hor["fit_l1"]) / hor["fit_l1"]
+    tol = (pol["fit_l1_err"] + hor["fit_l1_err"]) / hor["fit_l1"]
+    assert (rel <= SHADING["l1_slack"] + tol).all(), rel
+    assert (rel <= 2.0 * SHADING["l1_slack"]).all(), rel
 
 
 def test_shading_amplitude_shades_independent_quads_better_within_its_bound():
@@ -123,7 +147,9 @@ def test_shading_amplitude_shades_independent_quads_better_within_its_bound():
     for i, mu in enumerate((0.2, 0.6)):
         s = math.sqrt(1 - mu * mu)
         quads = []
-        for k in range(8):
+        # 32 quads: at mu = 0.6 the constrained polish stays near the L1 fit, and the mean of 8 quads does
+        # not resolve its gain (docs/ltc.md: a 4-quad judge's noise)
+        for k in range(32):
             c = np.array([-s, 0.0, mu]) + 0.35 * rng.normal(size=3) if k % 2 == 0 else rng.normal(size=3)
             c[2] = max(abs(c[2]), 0.3)
             c /= np.linalg.norm(c)
