@@ -12,9 +12,10 @@ the adaptive kernel's counters (``integrate_texels(..., return_cost="detail")``;
 texels, parameters and values as the table, asserted), and the run reports integrand
 evaluations per texel (mean, max, a histogram in powers of two), the time per evaluation (the
 table's time over its evaluations, all workers), the split into the outer floor (the initial v
-intervals: breakpoints, parts <= pi/16 or pi/8 in theta_m, pieces <= 1/4 in v; a D tail left out
-under its mass bound costs nothing) against outer bisections, each
-divided into inner first rules and inner bisections, and the mean cost of the hard texels
+intervals: breakpoints, parts <= pi/16 or pi/8 in theta_m and pieces <= 1/4 in v, pi/4
+and 1/2 for rough texels at loose tolerances; a D tail left out under its mass bound costs
+nothing) against outer bisections, each divided into inner first rules (7 or 15 evaluations
+per phi piece: the two-stage rule) and inner bisections, and the mean cost of the hard texels
 (grazing mu < 0.05, near-mirror alpha < 0.02, eta within 5% of 1, eta < 1). Evaluation counts
 are deterministic; times move with the machine's load. ``--variant KEY=VALUE`` (repeatable)
 also counts the same texels with other integrator keywords (e.g. ``inner_share=0.5``), in the
