@@ -226,6 +226,7 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--seed", type=int, default=16)
+    ap.add_argument("--save-table", metavar="NPZ", help="also write the built table's channels and axes (npz)")
     args = ap.parse_args(argv)
     folder = anchors_dir() / "heitz_ltc"
     if not folder.is_dir():
@@ -238,6 +239,8 @@ def main(argv=None) -> int:
     ours = build_preset("heitz-ltc", select=select, device=args.device, workers=args.workers)
     build_s, build_cpu = time.perf_counter() - t0, time.process_time() - c0
     mu, alpha = ours.axes["mu"], ours.axes["alpha"]
+    if args.save_table:
+        np.savez(args.save_table, **{k: np.asarray(v) for k, v in ours.channels.items()}, mu=mu, alpha=alpha)
     MU, AL = np.meshgrid(mu, alpha, indexing="ij")
     c = ours.channels
     minv_ours = np.zeros(MU.shape + (3, 3))
