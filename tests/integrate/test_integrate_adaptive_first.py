@@ -154,9 +154,11 @@ def test_first_share_zero_is_k15_always(texels):
 
 def _rough_texels():
     rng = np.random.default_rng(7010)
-    mu = np.concatenate([[1e-4, 0.02, 1.0, 0.999], rng.uniform(0.0, 1.0, 6)])
-    alpha = np.concatenate([[0.3, 1.0, 0.3, 0.7], rng.uniform(0.3, 1.0, 6)])
-    eta = np.concatenate([[1.5, 1.0 / 1.5, 1.01, 3.0], 1.0 / rng.uniform(1.01, 4.0, 3), rng.uniform(1.01, 4.0, 3)])
+    # SPEC section 5: grazing and normal incidence, alpha up to 2 (the reference's validated range)
+    mu = np.concatenate([[1e-4, 0.02, 1.0, 0.999, 0.05, 0.6], rng.uniform(0.0, 1.0, 6)])
+    alpha = np.concatenate([[0.3, 1.0, 0.3, 0.7, 2.0, 1.5], rng.uniform(0.3, 1.0, 6)])
+    eta = np.concatenate([[1.5, 1.0 / 1.5, 1.01, 3.0, 0.7, 1.5], 1.0 / rng.uniform(1.01, 4.0, 3),
+                          rng.uniform(1.01, 4.0, 3)])
     return [
         ("reflect", {"dist": 1, "shadowing": 0}, mu, alpha, np.ones(mu.size),
          [(ref.albedo(m, a, "beckmann", "separable", ("one",), methods="B"),) for m, a in zip(mu, alpha)]),
@@ -188,6 +190,23 @@ def test_rough_floor_is_honest_and_cheaper(rough_texels, tol):
                     err = abs(val - rr.value)
                     assert err <= rep + rr.err, (mode, kw, tol, mu[k], alpha[k], eta[k], ch, val, rr.value, rep)
                     assert err <= tol + rr.err
-    # measured on these 30 texels: 0.72 / 0.86 / 0.91 of the fine floor's evaluations
-    limit = {1e-2: 0.8, 1e-3: 0.92, 1e-4: 0.96}[tol]
+    # measured on these 36 texels: 0.72 / 0.91 / 0.95 of the fine floor's evaluations (the
+    # fine floor costs the same, 1.0)
+    limit = {1e-2: 0.8, 1e-3: 0.95, 1e-4: 0.98}[tol]
     assert total_new <= limit * total_old, (tol, total_new, total_old)
+
+
+def test_bit_identical_across_workers_at_loose_tolerance():
+    # the two-stage rule and the rough floor are per texel: any worker count and chunking gives
+    # the same bits (texels of both floors, both families, tolerances where both are active)
+    mu, alpha, eta = sample_texels(7020, 40, eta="<1")
+    alpha[::2] = 0.3 + alpha[::2]
+    for mode in ("reflect", "dielectric"):
+        for tol in (1e-2, 1e-4):
+            ref_v, ref_e = integrate_texels(mode, mu, alpha, eta, tol=tol, workers=1)
+            for workers in (2, 3):
+                v, e = integrate_texels(mode, mu, alpha, eta, tol=tol, workers=workers)
+                assert np.array_equal(v, ref_v) and np.array_equal(e, ref_e), (mode, tol, workers)
+            rev = slice(None, None, -1)
+            v, e = integrate_texels(mode, mu[rev], alpha[rev], eta[rev], tol=tol, workers=2)
+            assert np.array_equal(v[rev], ref_v) and np.array_equal(e[rev], ref_e), (mode, tol)
