@@ -23,7 +23,8 @@ def test_effort_and_texels_scale_the_cost():
     assert c.seconds == pytest.approx(4 * a.seconds)
     tight = cost.estimate({**base, "method": "adaptive", "tolerance": 1e-11})
     loose = cost.estimate({**base, "method": "adaptive", "tolerance": 1e-3})
-    assert 4 < tight.seconds / loose.seconds < 7 and tight.bound_seconds >= tight.seconds
+    # measured x9.6 (albedo) .. x12.9 (dfg) CPU time from 1e-3 to 1e-11 (bsdf_tab/cost.py)
+    assert 7 < tight.seconds / loose.seconds < 14 and tight.bound_seconds >= tight.seconds
 
 
 def test_the_issue_cases_are_over_a_minute():
