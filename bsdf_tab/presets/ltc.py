@@ -54,8 +54,8 @@ _COMMON = {
     "fresnel": "F = 1 in the matrix and magnitude; the Schlick split amplitude separately",
     "fit": "the clipped L1 distance int over the upper hemisphere of |D_ltc / m_up - f_r cos / E| (fit_l1_clipped) "
     "minimized by deterministic Nelder-Mead on accurate quadrature, then the matrix and the amplitude s polished on "
-    "fit_l1_clipped + 100 x the mean shading error over 96 fixed quad lights per texel, fit_l1 held within 0.5% of the "
-    "fit's (at mu <= 0.22 + fit_l1 instead; exact integrals of the "
+    "fit_l1_clipped + 100 x the mean shading error over 96 fixed quad lights per texel, fit_l1 (fine fit rule) held within 0.5% of "
+    "the fit's (at mu <= 0.22 + fit_l1 instead; exact integrals of the "
     "true lobe by a graded Warp rule; docs/ltc.md); E (fit_l1_clipped + |s - 1|) / 2 bounds the shading error of "
     "any light above the horizon; fit_l1 is the L1 distance of the normalized lobes on the sphere; the public code: "
     "Nelder-Mead on a 32 x 32-sample estimate of a cubed error, float32",

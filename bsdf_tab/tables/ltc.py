@@ -152,7 +152,7 @@ KINDS = {
                 "above the horizon, the fit minimizes fit_l1_clipped), albedo (magnitude = E as the public code "
                 "stores it, the fit minimizes fit_l1) or shading (the horizon fit, then the matrix and magnitude = "
                 "s E / horizon polished on fit_l1_clipped + 100 x the mean shading error over 96 fixed quad lights per "
-                "texel with fit_l1 held within 0.5% of the fit's (grazing rows, mu <= 0.22: + fit_l1, unconstrained); a "
+                "texel with fit_l1 (fine fit rule) held within 0.5% of the fit's (grazing rows, mu <= 0.22: + fit_l1, unconstrained); a "
                 "light above the horizon is shaded within E (fit_l1_clipped + |s - 1|) / 2)",
             },
         },

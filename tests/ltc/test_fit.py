@@ -328,3 +328,49 @@ def test_clipped_objective_kernel_matches_numpy():
         a = Objective("ggx", "correlated", mu, alpha, clipped=clipped)(idx, X)
         b = Objective("ggx", "correlated", mu, alpha, backend="numpy", clipped=clipped)(idx, X)
         np.testing.assert_allclose(a, b, rtol=1e-12)
+
+
+def test_polish_tasks_overlap_the_fit_chains():
+    """fit_table queues each row's polish as its own task while the block's chain goes on
+    (fit._run_chained): a queued task runs on a free thread before the task that queued it ends;
+    every queued task runs; with one worker each runs right after the task that queued it; the
+    first exception is raised and the tasks still queued behind it are cancelled."""
+    import threading
+
+    from bsdf_tab.ltc.fit import _run_chained
+
+    ran = []
+
+    def chain(submit):
+        done = threading.Event()
+        submit(lambda: (ran.append("polish"), done.set()))
+        # with two workers the queued task runs on the other thread while this one waits
+        assert done.wait(10.0), "the queued task did not run while its chain was still running"
+        ran.append("chain")
+
+    _run_chained([chain], workers=2)
+    assert ran == ["polish", "chain"]
+
+    order = []
+    _run_chained([lambda s, k=k: (order.append(f"fit{k}"), s(lambda k=k: order.append(f"polish{k}"))) for k in range(3)],
+                 workers=1)
+    assert order == ["fit0", "polish0", "fit1", "polish1", "fit2", "polish2"]
+
+    count = []
+    _run_chained([lambda s: [s(lambda: count.append(1)) for _ in range(50)] for _ in range(4)], workers=2)
+    assert len(count) == 200
+
+    started = []
+    gate = threading.Event()
+
+    def failing_chain(submit):
+        def boom():
+            raise ValueError("polish failed")
+        submit(boom)
+        for _ in range(100):
+            submit(lambda: (gate.wait(0.01), started.append(1)))
+
+    with pytest.raises(ValueError, match="polish failed"):
+        _run_chained([failing_chain], workers=2)
+    gate.set()
+    assert len(started) < 100  # the rest of the queue was cancelled, not run
