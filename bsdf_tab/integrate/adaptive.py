@@ -19,8 +19,8 @@ i.m = mu / (2 cos theta_m) + (1 - eta^2) cos theta_m / (2 mu) (eta < 1, where th
 split at those points, each piece mapped by phi = a + (b - a)(3 t^2 - 2 t^3) (which smooths the
 square-root behaviour of Fresnel at the critical angle and of the horizons), and integrated by
 adaptive G7-K15 as a two-stage rule (issue 14, fourth round): the 7 Gauss nodes first, and G7
-is accepted with the error |G7 - I5| (I5 the interpolatory rule on 5 of those nodes, degree 5
-against G7's 13) where that fits the interval's share of the piece's tolerance; otherwise the
+is accepted with the error ``first_safety`` |G7 - I5| = 4 |G7 - I5| (I5 the interpolatory rule on
+5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise the
 8 Kronrod nodes are added and the interval is K15 with the estimate below (the 7 values reused,
 so a rejected first stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
 theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, and the
@@ -58,23 +58,22 @@ of G7) by min(1, ``err_safety`` r^``err_power``) = min(1, r^3), r the decay rati
 Legendre coefficients of the 15-node interpolant
 (:func:`bsdf_tab.integrate.quadrature.decay_ratio`): where the coefficients fall fast, K15 is
 resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|; an accepted
-first stage reports |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`). Measured,
-not proven: on 1634 reference texels (``bench/accuracy_honesty.py``, tolerances 1e-2 .. 1e-7)
-no texel reports less than its true error and the worst true / reported ratio of the heuristic
-estimates is 0.46; the outer rule still compares K15 with G7 over 15 inner results, so an inner
-error the estimate misses perturbs the outer difference. The same estimate at the outer level,
-r^6, or the two-stage rule at the outer level reported errors below the true ones
-(docs/methods.md). Rule applications are capped per texel (``max_rules_outer``,
+first stage reports 4 |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`), the degree-6
+term of the 7 values' interpolant, not G7's error, blind to what 7 values do not resolve (one
+inner integral can under-report: 20 of 24000 random ones, 82 with the plain |G7 - I5|). Texel
+honesty rests on the outer level, measured, not proven: on 1634 reference texels
+(``bench/accuracy_honesty.py``, 1e-2 .. 1e-7) none reports less than its true error, worst
+heuristic ratio 0.46; the outer rule compares K15 with G7 over 15 inner results, so an inner miss
+perturbs the outer difference. The same estimate at the outer level, r^6, or the two-stage rule
+there under-reported (docs/methods.md). Rule applications are capped per texel (``max_rules_outer``,
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
 reports its large estimate instead of a wrong small one.
 
-Where the pieces live: the integrand, the mirror limit alpha = 0, the mass bound and the
-thresholds of the breakpoints (critical angle, transmission floor) in
-:mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the D cos CDF
-v(theta_m) and its inverse in each distribution's module (:func:`bsdf_tab.model.dcos_tan_of_v`,
-:func:`bsdf_tab.model.dcos_v_of_theta`); the G7-K15 and I5 constants, the error models and the
-global bisection (one routine for both levels) in :mod:`bsdf_tab.integrate.quadrature`. This
-module holds the two rules, the breakpoints, the kernel and its launcher.
+Where the pieces live: the integrand, the mirror limit, the mass bound and the breakpoints'
+thresholds in :mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the
+D cos CDF v(theta_m) and its inverse in :mod:`bsdf_tab.model`; the G7-K15 and I5 constants, the
+error models and the global bisection (both levels) in :mod:`bsdf_tab.integrate.quadrature`.
+This module holds the two rules, the breakpoints, the kernel and its launcher.
 
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
 Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
@@ -105,6 +104,7 @@ _vec48d = wp.types.vector(length=48, dtype=wp.float64)
 
 _PI = wp.constant(wp.float64(math.pi))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
+FIRST_SAFETY = 4.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, round 4)
 
 
 @wp.func
@@ -126,7 +126,7 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
     """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
     thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
     error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
-    :func:`first_stage`'s error where that is <= thr (tb - ta) and G7 != 0; else the 8 Kronrod nodes."""
+    :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; else K15."""
     half = wp.float64(0.5)
     ctr = half * (ta + tb)
     hl = half * (tb - ta)
@@ -140,7 +140,7 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
             f0[j] = f[0]
             f1[j] = f[1]
     if p.inner_first > 0:
-        g, d = first_stage(f0, f1, hl, p.inner_first)
+        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
         # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
         if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(7)
@@ -338,6 +338,7 @@ def texel_kernel(
     bound_share: wp.float64,
     inner_first: wp.int32,
     first_share: wp.float64,
+    first_safety: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -362,6 +363,7 @@ def texel_kernel(
         max_dtheta = rough[1]
         max_piece = rough[2]
     p.first_share = first_share
+    p.first_safety = first_safety
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     mu = p.mu
@@ -508,6 +510,7 @@ def integrate_texels(
     bound_share: float | None = None,
     inner_first: int = 5,
     first_share: float = 1.0,
+    first_safety: float = FIRST_SAFETY,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -525,17 +528,15 @@ def integrate_texels(
         to the inner phi integrals (0.7; 0.25 before issue 14's second round), the longest initial outer piece in v (0.25), the
         number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
         breakpoints (0; 7 before issue 14's second round), and the widest initial outer piece in
-        theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut); for texels with
-        alpha >= ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4, else none) ``rough_dtheta``
-        (pi/4) and ``rough_piece`` (1/2) instead. ``err_model_inner``: the inner level's error model
+        theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut); for alpha >=
+        ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4) ``rough_dtheta`` (pi/4), ``rough_piece`` (1/2). ``err_model_inner``: the inner level's error model
         (-1: ``err_model``; 2, the default: |K15 - G7| times min(1, err_safety r^err_power),
         r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3). ``bound_share``: the
         share of the budget for the D tail left out under its mass bound (None: 0.25 at
         tolerances >= 1e-4, 0 below; 0: none left out, the bound still caps each outer rule's
-        estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the inner two-stage rule's first estimate (5, the
-        default: |G7 - I5|; 3: the 3-node rule, |G7 - I3|; 0: K15 always, the method before
-        issue 14's fourth round); ``first_share``: the share of an interval's tolerance that an
-        accepted first stage may report (1).
+        estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the
+        inner first stage (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always, before issue 14's round 4);
+        ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (4): its factor.
 
     Returns
     -------
@@ -583,7 +584,7 @@ def integrate_texels(
                 float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
                 float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
                 wp.vec3d(*rough), err_floor,
-                float(bound_share), int(inner_first), float(first_share), value, error, cost, detail,
+                float(bound_share), int(inner_first), float(first_share), float(first_safety), value, error, cost, detail,
             ],
             device=dev,
         )

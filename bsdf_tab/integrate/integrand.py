@@ -78,6 +78,7 @@ class TexelParams:
     err_power: wp.float64  # adaptive only: err_model 2's power of the decay ratio
     inner_first: wp.int32  # adaptive only: the inner two-stage rule's first estimate (0: off; 5, 3)
     first_share: wp.float64  # adaptive only: the share of an interval's tolerance the first stage may use
+    first_safety: wp.float64  # adaptive only: the factor on the first stage's |G7 - I5| (make_texel: 1)
     bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 
 
@@ -100,6 +101,7 @@ def make_texel(mode: wp.int32, dist: wp.int32, shadowing: wp.int32, ftype: wp.in
     p.alpha = alpha
     p.eta = eta
     p.li = lambda_cos(mu, alpha, dist)
+    p.first_safety = one
     return p
 
 

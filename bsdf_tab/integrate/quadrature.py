@@ -128,12 +128,20 @@ def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, 
 
 
 @wp.func
-def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32):
+def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety: wp.float64):
     """The first stage of the two-stage rule: G7 from the 7 Gauss nodes (odd j in the 15-node
-    order of ``f0``, ``f1``) and its error |G7 - I| (I: :data:`WI5` for ``which`` 5, else
-    :data:`WI3`, on the same nodes), both times the half length ``hl``; the error floored at 50 ulp
-    of |G7|. |G7 - I| is the error of I (degree 5 or 3), far above G7's own (degree 13) where
-    the function is smooth. Returns (G7, error)."""
+    order of ``f0``, ``f1``) and its error ``safety`` |G7 - I| (I: :data:`WI5` for ``which`` 5,
+    else :data:`WI3`, on the same nodes), both times the half length ``hl``; the error floored at
+    50 ulp of |G7|. Returns (G7, error).
+
+    What |G7 - I5| measures: the difference of two rules on the same 7 values, i.e. the
+    degree-6 term of the 7-point interpolant (I5 is exact to degree 5) -- not G7's own error.
+    Its blind spot: a function that the 7 values do not resolve (a ramp or kink narrower than
+    the node spacing, e.g. a G1 shadowing ramp next to a horizon where the smoothstep map's
+    Jacobian is small) has an interpolant that looks smooth, and |G7 - I5| can then be far
+    *below* |G7 - exact| (measured 66x for a GGX G1 ramp of width 0.026, 103x for 1/(1 + w) ramps,
+    250x for a Fresnel-like kink). ``safety`` (the adaptive method's ``first_safety``) scales
+    it; it is a heuristic, not a bound (docs/methods.md, issue 14, fourth round)."""
     g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     q = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
@@ -146,7 +154,7 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32):
                 q += WI3_D[j % 8] * f
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
-        out[c] = wp.max(wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
+        out[c] = wp.max(safety * wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
     return g * hl, out
 
 

@@ -25,7 +25,10 @@ import numpy as np
 import pytest
 import warp as wp
 
-from bsdf_tab.integrate import integrate_texels
+from scipy.integrate import quad
+
+from bsdf_tab.integrate import adaptive, integrate_texels
+from bsdf_tab.integrate.integrand import MODE_DIELECTRIC, MODE_REFLECT, integrand_phi, make_texel
 from bsdf_tab.integrate.quadrature import GK_X, WG7, WI3, WI5, XGK, first_stage, vec16d
 from tests.reference import microfacet_ref as ref
 from tests.reference.sampling import sample_texels
@@ -68,7 +71,7 @@ def _first_kernel(f: wp.array2d(dtype=wp.float64), hl: wp.float64, which: wp.int
     for j in range(15):
         f0[j] = f[k, j]
         f1[j] = -wp.float64(2.0) * f[k, j]
-    g, e = first_stage(f0, f1, hl, which)
+    g, e = first_stage(f0, f1, hl, which, wp.float64(1.0))
     out[k, 0] = g[0]
     out[k, 1] = g[1]
     out[k, 2] = e[0]
@@ -210,3 +213,136 @@ def test_bit_identical_across_workers_at_loose_tolerance():
             rev = slice(None, None, -1)
             v, e = integrate_texels(mode, mu[rev], alpha[rev], eta[rev], tol=tol, workers=2)
             assert np.array_equal(v[rev], ref_v) and np.array_equal(e[rev], ref_e), (mode, tol)
+
+
+# --- issue 14 review: what the first stage's estimate misses, at the inner level and in margin ---
+# |G7 - I5| is the degree-6 term of the 7 values' interpolant: where those values do not resolve
+# the integrand (a ramp or kink narrower than the node spacing) it can be far below G7's true
+# error, and the inner phi integral then under-reports. The cases below are a review's
+# (/tmp/s7/review/inner2.py, seed 3): single inner integrals (one theta_m) whose reported error
+# was below the true one only with the first stage; the reference is SciPy's QUADPACK on the
+# same integrand over [0, pi] (no breakpoints given), independent of this quadrature.
+
+@wp.kernel
+def _inner_kernel(mode: wp.int32, dist: wp.int32, shad: wp.int32, ftype: wp.int32, fp0: wp.float64,
+                  mu: wp.float64, alpha: wp.float64, eta: wp.float64, theta: wp.float64, tol: wp.float64,
+                  safety: wp.float64, out: wp.array(dtype=wp.float64)):
+    p = make_texel(mode, dist, shad, ftype, fp0, wp.float64(0.0), mu, alpha, eta)
+    # the texel kernel's settings (integrate_texels' defaults), bound_share irrelevant here
+    p.err_model = 1
+    p.err_model_inner = 2
+    p.err_safety = wp.float64(1.0)
+    p.err_power = wp.float64(3.0)
+    p.inner_first = 5
+    p.first_share = wp.float64(1.0)
+    p.first_safety = safety
+    cm = wp.cos(theta)
+    sm = wp.sin(theta)
+    r, e, used, used_ref = adaptive._inner(p, cm, sm, sm / cm, tol, 50)
+    out[0] = r[0]
+    out[1] = r[1]
+    out[2] = e[0]
+    out[3] = e[1]
+
+
+@wp.kernel
+def _phi_kernel(mode: wp.int32, dist: wp.int32, shad: wp.int32, ftype: wp.int32, fp0: wp.float64,
+                mu: wp.float64, alpha: wp.float64, eta: wp.float64, theta: wp.float64,
+                phi: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
+    k = wp.tid()
+    p = make_texel(mode, dist, shad, ftype, fp0, wp.float64(0.0), mu, alpha, eta)
+    cm = wp.cos(theta)
+    sm = wp.sin(theta)
+    f = integrand_phi(p, cm, sm, sm / cm, phi[k])
+    out[k, 0] = f[0]
+    out[k, 1] = f[1]
+
+
+def _inner_reference(args, ch):
+    """int_0^pi of the integrand over phi by scipy.integrate.quad (QUADPACK qags, its own
+    bisection and extrapolation at the kinks), to 1e-12."""
+    out = wp.zeros((1, 2), dtype=wp.float64, device="cpu")
+
+    def f(x):
+        wp.launch(_phi_kernel, dim=1, inputs=[*args, wp.array([x], dtype=wp.float64, device="cpu"), out], device="cpu")
+        return float(out.numpy()[0, ch])
+
+    val, err = quad(f, 0.0, math.pi, limit=2000, epsabs=1e-12, epsrel=1e-12)
+    return val, err
+
+
+def _inner_run(args, tol, safety):
+    out = wp.zeros(4, dtype=wp.float64, device="cpu")
+    wp.launch(_inner_kernel, dim=1, inputs=[*args, float(tol), float(safety), out], device="cpu")
+    return out.numpy()
+
+
+# (family, (mode, dist, shadowing, ftype, fp0), mu, alpha, eta, theta_m, inner tolerance);
+# the review's true / reported ratios with the plain |G7 - I5| (first_safety 1) in the comments
+_REFLECT, _DIELECTRIC = int(MODE_REFLECT), int(MODE_DIELECTRIC)
+INNER_FIXED = [
+    # 215x: a Fresnel kink (dielectric Fresnel of eta 0.6) next to a near-mirror lobe
+    ("reflect Beckmann sep F diel 0.6", (_REFLECT, 1, 0, 2, 0.6), 0.11277485525312887, 0.0015844023589694834, 1.0,
+     0.11284791296268344, 5.6232712338668181e-06),
+    # 23.5x
+    ("dielectric Beckmann sep eta>1", (_DIELECTRIC, 1, 0, 0, 0.0), 0.11482999627418791, 0.006055113501053931,
+     1.4962364390322505, 0.81155401709014185, 8.1838269512167302e-05),
+    # 21.3x
+    ("dielectric GGX corr eta<1", (_DIELECTRIC, 0, 1, 0, 0.0), 0.088469153142784362, 0.0047783195992802622,
+     0.75936384228852971, 0.46358414632174377, 2.4496254876416844e-05),
+]
+# documented limits: still under-reported at the inner level with first_safety 4 (the texel
+# stays honest: the outer K15 / G7 comparison sees the miss, measured, not proven)
+INNER_LIMITS = [
+    # 120x with the plain estimate, 30x with first_safety 4 (the review's example)
+    ("dielectric GGX corr eta<1", (_DIELECTRIC, 0, 1, 0, 0.0), 0.03043844495827952, 0.010415639288117227,
+     0.56192275940216563, 0.015230819634039047, 0.00048996236115669855),
+    # 69x -> 17x
+    ("dielectric Beckmann sep eta>1", (_DIELECTRIC, 1, 0, 0, 0.0), 0.26927840536352821, 0.066820232340004726,
+     2.3400476395048466, 0.11450921512244226, 0.058800391168301533),
+]
+
+
+def _inner_worst(case, safety):
+    _, fam, mu, alpha, eta, theta, tol = case
+    args = [*fam, float(mu), float(alpha), float(eta), float(theta)]
+    out = _inner_run(args, tol, safety)
+    worst = 0.0
+    for ch in range(2):
+        val, qerr = _inner_reference(args, ch)
+        assert qerr < 1e-9  # the reference converged far below the errors in question
+        worst = max(worst, (abs(out[ch] - val) - qerr) / out[2 + ch])
+    return worst
+
+
+@pytest.mark.parametrize("case", INNER_FIXED, ids=[c[0] for c in INNER_FIXED])
+def test_inner_first_stage_honest_with_safety(case):
+    # the shipped factor covers these inner misses; the plain |G7 - I5| does not (the test's power)
+    assert _inner_worst(case, adaptive.FIRST_SAFETY) <= 1.0
+    assert _inner_worst(case, 1.0) > 1.0
+
+
+@pytest.mark.parametrize("case", INNER_LIMITS, ids=[c[0] for c in INNER_LIMITS])
+@pytest.mark.xfail(strict=True, reason="documented limit: the 7 values do not resolve the integrand (docs/methods.md)")
+def test_inner_first_stage_limits(case):
+    assert _inner_worst(case, adaptive.FIRST_SAFETY) <= 1.0
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3, 5e-7])
+def test_first_stage_margin(texels, tol):
+    # the heuristic estimates alone (bound_share 0: no D tail left out under its rigorous bound):
+    # the worst (|true error| - reference bound) / reported error on these 26 texels, measured
+    # 0.030 / 0.023 / 0.142 with first_safety 4 (0.063 / 0.122 / 0.165 with 1); the estimate
+    # scaled by 0.1 (first_safety 0.1) gives 0.616 / 0.616 / 0.566, above the bound
+    def worst(safety):
+        w = 0.0
+        for mode, kw, mu, alpha, eta, refs in texels:
+            v, e = integrate_texels(mode, mu, alpha, eta, tol=tol, bound_share=0.0, first_safety=safety, **kw)
+            for k, r in enumerate(refs):
+                for ch, rr in enumerate(r):
+                    w = max(w, (abs(v[k, ch] - rr.value) - rr.err) / e[k, ch])
+        return w
+
+    assert worst(adaptive.FIRST_SAFETY) <= 0.3
+    if tol == 1e-2:
+        assert worst(0.1) > 0.3  # the bound catches an estimate 10x too small
