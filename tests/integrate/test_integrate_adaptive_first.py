@@ -228,7 +228,7 @@ def test_bit_identical_across_workers_at_loose_tolerance():
 # |G7 - I5| is the degree-6 term of the 7 values' interpolant: where those values do not resolve
 # the integrand (a ramp or kink narrower than the node spacing) it can be far below G7's true
 # error, and the inner phi integral then under-reports. The cases below are a review's
-# (/tmp/s7/review/inner2.py, seed 3): single inner integrals (one theta_m) whose reported error
+# (the sampling of bench/inner_honesty.py, seed 3): single inner integrals (one theta_m) whose reported error
 # was below the true one only with the first stage; the reference is SciPy's QUADPACK on the
 # same integrand over [0, pi] (no breakpoints given), independent of this quadrature.
 
