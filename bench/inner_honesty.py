@@ -100,14 +100,34 @@ def run(family: tuple, s: dict, tol: np.ndarray, inner_first: int, safety: float
     return out.numpy()
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def _safeties(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"comma-separated numbers expected, got {text!r}") from None
+    if not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"every first_safety must be a positive number, got {text!r}")
+    return values
+
+
+def _samples(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"an integer expected, got {text!r}") from None
+    if n < 3:
+        raise argparse.ArgumentTypeError(f"at least 3 samples per family, got {n}")
+    return n
+
+
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--samples", type=int, default=6000, help="inner integrals per family")
-    ap.add_argument("--safety", default="1,4", help="first_safety values, comma-separated (4 is the default)")
+    ap.add_argument("--samples", type=_samples, default=6000, help="inner integrals per family")
+    ap.add_argument("--safety", type=_safeties, default="1,4", help="first_safety values, comma-separated (4 is the default)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "out" / "inner_honesty.json"))
     args = ap.parse_args(argv)
-    safeties = [float(v) for v in args.safety.split(",")]
+    safeties = args.safety
     rng = np.random.default_rng(args.seed)
     rows = []
     print("| family | first_safety | under-reported only with the first stage (ch 0 / ch 1) | worst true / reported | inner rule applications / K15 only |")
