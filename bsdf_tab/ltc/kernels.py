@@ -18,7 +18,7 @@ from ..integrate.runtime import resolve_device
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-__all__ = ["BatchLaunch", "ObjectiveKernel", "horizon_mass", "ltc_density"]
+__all__ = ["BatchLaunch", "ObjectiveKernel", "horizon_mass", "l1_deficits", "ltc_density"]
 
 _INV_PI = wp.constant(wp.float64(0.31830988618379067154))
 
@@ -40,6 +40,26 @@ def ltc_density(x: wp.float64, y: wp.float64, z: wp.float64, w_: wp.float64, det
     lz = y * d[0] + w_ * d[2]
     n2 = lx * lx + d[1] * d[1] + lz * lz  # >= d_y^2 + ..., > 0 for invertible Minv, |d| = 1
     return wp.max(lz, wp.float64(0.0)) * det / (n2 * n2)
+
+
+@wp.func
+def l1_deficits(L: wp.array2d(dtype=wp.vec3d), wn: wp.array2d(dtype=wp.float64), mf: wp.array2d(dtype=wp.float64),
+                b: wp.int32, x: wp.float64, y: wp.float64, z: wp.float64, w_: wp.float64, det: wp.float64,
+                a: wp.float64, acc0: wp.float64):
+    """The L1 metric's node sums over texel ``b``'s nodes, one density per node (D_k = D_ltc(L_k) mf_k):
+    (acc0 + sum_k wn_k max(1 - a D_k, 0), sum_k wn_k max(1 - D_k, 0)), i.e. 2 int max(T - a D_ltc, 0)
+    for an amplitude a and for 1 (zero-weight nodes skipped)."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    acc = acc0
+    plain = zero
+    for k in range(L.shape[1]):
+        wk = wn[b, k]
+        if wk > zero:
+            dens = ltc_density(x, y, z, w_, det, L[b, k]) * mf[b, k]
+            acc += wk * wp.max(one - a * dens, zero)
+            plain += wk * wp.max(one - dens, zero)
+    return wp.vec2d(acc, plain)
 
 
 @wp.kernel
@@ -64,13 +84,7 @@ def _objective(
     if clip != 0:
         # the horizon-mass amplitude: D / m_up
         det = det / horizon_mass(x, y, det_s)
-    acc = wp.float64(0.0)
-    for k in range(L.shape[1]):
-        wk = wn[b, k]
-        if wk > wp.float64(0.0):
-            dens = ltc_density(x, y, z, w_, det, L[b, k])
-            acc += wk * wp.max(wp.float64(1.0) - dens * mf[b, k], wp.float64(0.0))
-    out[t] = acc
+    out[t] = l1_deficits(L, wn, mf, b, x, y, z, w_, det, wp.float64(1.0), wp.float64(0.0))[1]
 
 
 class BatchLaunch:

@@ -27,7 +27,7 @@ import warp as wp
 
 from ..model.ltc import ltc_minv, ltc_quad_integral
 from .exact import RULE as EXACT_RULE, quad_integrals
-from .kernels import BatchLaunch, horizon_mass, ltc_density
+from .kernels import BatchLaunch, horizon_mass, l1_deficits
 from ..integrate.runtime import resolve_device
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
@@ -163,22 +163,14 @@ def _polish_objective(
     det_s = x * w_ - y * z
     amp = s / horizon_mass(x, y, det_s)
     det = wp.abs(det_s) * _INV_PI
-    acc = s - one  # a m_up - 1
-    sphere = zero
-    for k in range(L.shape[1]):
-        wk = wn[b, k]
-        if wk > zero:
-            dens = ltc_density(x, y, z, w_, det, L[b, k]) * mf[b, k]
-            acc += wk * wp.max(one - amp * dens, zero)
-            sphere += wk * wp.max(one - dens, zero)
+    # the clipped metric (from a m_up - 1) and the sphere metric on the same nodes
+    sums = l1_deficits(L, wn, mf, b, x, y, z, w_, det, amp, s - one)
+    acc = sums[0]
+    sphere = sums[1]
     excess = zero
     if penalty > zero:
         # the constraint fit_l1 <= limit, fit_l1 on the constraint's own nodes
-        cons = zero
-        for k in range(Lc.shape[1]):
-            wk = wnc[b, k]
-            if wk > zero:
-                cons += wk * wp.max(one - ltc_density(x, y, z, w_, det, Lc[b, k]) * mfc[b, k], zero)
+        cons = l1_deficits(Lc, wnc, mfc, b, x, y, z, w_, det, one, zero)[1]
         excess = wp.max(cons - limit[b], zero)
     minv = ltc_minv(x, y, z, w_)
     nq = quads.shape[1]
