@@ -18,6 +18,8 @@ Reference: Piessens et al. 1983, "QUADPACK" (qk15, and the global adaptive strat
 
 from typing import Any
 
+import math
+
 import numpy as np
 import warp as wp
 
@@ -156,6 +158,18 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
     for c in range(2):
         out[c] = wp.max(safety * wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
     return g * hl, out
+
+
+def check_first_stage(inner_first, first_share, first_safety) -> None:
+    """The two-stage rule's keywords, validated: ``inner_first`` 0 (off), 5 (I5) or 3 (I3),
+    ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1 only for measuring the
+    margin: the estimate is then smaller than |G7 - I| itself)."""
+    if isinstance(inner_first, bool) or inner_first not in (0, 3, 5):
+        raise ValueError(f"inner_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {inner_first!r}")
+    if not (0.0 <= float(first_share) <= 1.0):
+        raise ValueError(f"first_share must be in [0, 1], got {first_share!r}")
+    if not (math.isfinite(float(first_safety)) and float(first_safety) > 0.0):
+        raise ValueError(f"first_safety must be a finite number > 0, got {first_safety!r}")
 
 
 STACK = 64
