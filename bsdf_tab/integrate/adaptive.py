@@ -552,9 +552,8 @@ def integrate_texels(
     dev = resolve_device(device)
     check_workers(workers)
     check_first_stage(inner_first, first_share, first_safety)
-    # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D
-    # tail were measured under smaller estimates, docs/methods.md), down to 1e-10 (float64
-    # accumulation over ~1e5 terms) for tighter tolerances
+    # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
+    # were measured under smaller estimates), down to 1e-10 (float64 sums of ~1e5 terms) below
     err_floor = max(1e-10, min(1e-9, 0.01 * float(tol)))
     if max_dtheta is None:
         # the floor follows the tolerance: pi/8 parts at tolerances >= 1e-5, pi/16 below
