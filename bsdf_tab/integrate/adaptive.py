@@ -156,6 +156,15 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
         f = wp.vec2d(f0[j], f1[j])
         rk += WGK_D[jj] * f
         rg += WG7_D[jj] * f
+    if p.err_model_inner == 2:
+        # a channel with K15 = G7 has the error 0 whatever its decay ratio (reflection's
+        # channel 1 is always 0): its 90 Legendre products are not formed
+        r = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+        if rk[0] * hl != rg[0] * hl:
+            r[0] = decay_ratio(f0)
+        if rk[1] * hl != rg[1] * hl:
+            r[1] = decay_ratio(f1)
+        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
@@ -163,9 +172,6 @@ def _gk_phi(p: TexelParams, x: _vec6d, ta: wp.float64, tb: wp.float64):
         if j >= 8:
             jj = j - 8
         resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
-    if p.err_model_inner == 2:
-        r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
-        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
     return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
 
 

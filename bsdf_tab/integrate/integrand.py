@@ -159,6 +159,10 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     out = wp.vec2d(zero, zero)
+    f_d = zero
+    if p.mode == MODE_DIELECTRIC:
+        # one Fresnel for both channels
+        f_d = fresnel_dielectric(c, p.eta)
     zo = wp.float64(2.0) * c * cm - p.mu
     if zo > zero:
         lo = lambda_cos(zo, p.alpha, p.dist)
@@ -168,7 +172,7 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
             w5 = w * w * w * w * w
             out = wp.vec2d(g * (one - w5), g * w5)
         elif p.mode == MODE_DIELECTRIC:
-            out = wp.vec2d(fresnel_dielectric(c, p.eta) * g, zero)
+            out = wp.vec2d(f_d * g, zero)
         else:
             out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
     if p.mode == MODE_DIELECTRIC:
@@ -186,7 +190,7 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
             elif d == zero and p.mu == zero:
                 # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
                 g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
-            out = wp.vec2d(out[0], (one - fresnel_dielectric(c, p.eta)) * g)
+            out = wp.vec2d(out[0], (one - f_d) * g)
     return out
 
 

@@ -121,11 +121,18 @@ def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, 
     """|K15 - G7| scaled by min(1, safety r^power) per channel (r from :func:`decay_ratio`),
     floored at 50 ulp of |K|: the G7 error, shrunk where the coefficients show that K15 is
     resolved beyond G7."""
+    one = wp.float64(1.0)
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
         d = wp.abs(rk[c] - rg[c])
-        e = d * wp.min(wp.float64(1.0), safety * wp.pow(r[c], power))
-        out[c] = wp.max(e, wp.float64(1.1e-14) * wp.abs(rk[c]))
+        # min(1, safety r^power), without the pow call where it is 1 (r >= 1, safety >= 1) or 0
+        # (r = 0; power > 0): the same value
+        fac = one
+        if r[c] <= wp.float64(0.0):
+            fac = wp.float64(0.0)
+        elif r[c] < one or safety < one:
+            fac = wp.min(one, safety * wp.pow(r[c], power))
+        out[c] = wp.max(d * fac, wp.float64(1.1e-14) * wp.abs(rk[c]))
     return out
 
 
@@ -208,6 +215,16 @@ def make_global_bisection(rule):
     @wp.func
     def bisect(p: Any, x: Any, ends: Any, ne: wp.int32, tol: wp.float64, max_rules: wp.int32, cost0: Any):
         zero = wp.float64(0.0)
+        r_one = wp.vec2d(zero, zero)
+        e_one = wp.vec2d(zero, zero)
+        c_one = cost0
+        if ne == 1 and ends[1] > ends[0]:
+            # one interval (the inner level's pieces): apply the rule before the stacks are
+            # built, and return at once when it meets the tolerance (most pieces): the same sums
+            # as below (0 + r, 0 + e), without zero-filling STACK x 6 doubles per call
+            r_one, e_one, c_one = rule(p, x, ends[0], ends[1])
+            if e_one[0] <= tol and e_one[1] <= tol:
+                return r_one, e_one, cost0 + c_one, cost0
         ia = stackd()
         ib = stackd()
         v0 = stackd()
@@ -221,7 +238,11 @@ def make_global_bisection(rule):
         te = wp.vec2d(zero, zero)
         for q in range(ne):
             if ends[q + 1] > ends[q]:
-                r, e, c = rule(p, x, ends[q], ends[q + 1])
+                r = r_one
+                e = e_one
+                c = c_one
+                if ne != 1:
+                    r, e, c = rule(p, x, ends[q], ends[q + 1])
                 used += 1
                 cost += c
                 ia[n] = ends[q]
