@@ -194,13 +194,63 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
     return out
 
 
+# Taylor coefficients (-1)^k / (2k)! and (-1)^k / (2k + 1)!, k = 1 .. 8: on |y| <= pi/4 the first
+# left-out terms are below 2.1e-18 (cos) and 8.1e-20 (sin)
+_COS_C = [(-1.0) ** k / math.factorial(2 * k) for k in range(1, 9)]
+_SIN_C = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(1, 9)]
+_vec8d = wp.types.vector(length=8, dtype=wp.float64)
+COS_C = wp.constant(_vec8d(*_COS_C))
+SIN_C = wp.constant(_vec8d(*_SIN_C))
+PIO2_HI = wp.constant(wp.float64(1.5707963267948966))  # pi/2 = PIO2_HI + PIO2_LO to ~1e-33
+PIO2_LO = wp.constant(wp.float64(6.123233995736766e-17))
+PI_HI = wp.constant(wp.float64(3.141592653589793))  # pi = PI_HI + PI_LO
+PI_LO = wp.constant(wp.float64(1.2246467991473532e-16))
+
+
+@wp.func
+def _cos_poly(y: wp.float64):
+    # cos(y) for |y| <= pi/4 (Horner in y^2)
+    z = y * y
+    q = COS_C[7]
+    for k in range(7):
+        q = q * z + COS_C[6 - k]
+    return wp.float64(1.0) + z * q
+
+
+@wp.func
+def _sin_poly(y: wp.float64):
+    # sin(y) for |y| <= pi/4
+    z = y * y
+    q = SIN_C[7]
+    for k in range(7):
+        q = q * z + SIN_C[6 - k]
+    return y + y * (z * q)
+
+
+@wp.func
+def cos_0_pi(x: wp.float64):
+    """cos(x) for x in [0, pi] (and a few ulp beyond), within ~2e-16 of the exact value.
+
+    The inner phi nodes of the adaptive method all lie in [0, pi]: the general libm cos (its
+    range reduction for any x) was ~17% of the kernel's time (issue 14, fifth round). Reduced
+    to |y| <= pi/4 by cos x = sin(pi/2 - x) and -cos(pi - x), with pi/2 and pi in two parts
+    (pi/2 - x and pi - x are exact in float64 where they are used: Sterbenz), then Taylor
+    polynomials of degree 16 / 17.
+    """
+    if x <= wp.float64(0.7853981633974483):
+        return _cos_poly(x)
+    if x <= wp.float64(2.356194490192345):
+        return _sin_poly((PIO2_HI - x) + PIO2_LO)
+    return -_cos_poly((PI_HI - x) + PI_LO)
+
+
 @wp.func
 def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
     """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi).
 
     ``cm``, ``sm``, ``tm`` are cos, sin and tan of theta_m; the measure is D cos dw_m.
     """
-    cp = wp.cos(phi)
+    cp = cos_0_pi(phi)
     c = p.sin_i * sm * cp + p.mu * cm
     if c <= wp.float64(0.0):
         # chi+(i.m): i sees the back of the micro-facet

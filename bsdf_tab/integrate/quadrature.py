@@ -126,12 +126,15 @@ def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, 
     for c in range(2):
         d = wp.abs(rk[c] - rg[c])
         # min(1, safety r^power), without the pow call where it is 1 (r >= 1, safety >= 1) or 0
-        # (r = 0; power > 0): the same value
+        # (r = 0; power > 0), and r^3 as r r r (within 2 ulp of pow: the estimate's last bits)
         fac = one
         if r[c] <= wp.float64(0.0):
             fac = wp.float64(0.0)
         elif r[c] < one or safety < one:
-            fac = wp.min(one, safety * wp.pow(r[c], power))
+            rp = r[c] * r[c] * r[c]
+            if power != wp.float64(3.0):
+                rp = wp.pow(r[c], power)
+            fac = wp.min(one, safety * rp)
         out[c] = wp.max(d * fac, wp.float64(1.1e-14) * wp.abs(rk[c]))
     return out
 
