@@ -92,7 +92,7 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
     mass_bound, phi_of_c, tir_eta, transmission_breaks, vec24d, mode_id,
 )
 from .quadrature import WG7_D, WGK_D, XGK_D, check_first_stage, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
-from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
+from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
@@ -581,19 +581,13 @@ def integrate_texels(
     cost = wp.zeros(n, dtype=wp.int32, device=dev)
     detail = wp.zeros((n, 4), dtype=wp.int32, device=dev)
 
-    def launch(idx):
-        wp.launch(
-            texel_kernel,
-            dim=idx.shape[0],
-            inputs=[
-                idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
-                float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
-                float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
-                wp.vec3d(*rough), err_floor,
-                float(bound_share), int(inner_first), float(first_share), float(first_safety), value, error, cost, detail,
-            ],
-            device=dev,
-        )
+    launch = chunk_launcher(texel_kernel, [
+        mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
+        float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
+        float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
+        wp.vec3d(*rough), err_floor,
+        float(bound_share), int(inner_first), float(first_share), float(first_safety), value, error, cost, detail,
+    ], dev)
 
     # interleave the texels so that expensive ones (grazing mu) spread over the workers
     order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 else None

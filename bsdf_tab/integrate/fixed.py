@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .integrand import mode_id
-from .runtime import check_workers, resolve_device, run_chunks, texel_arrays
+from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
 
 def launch_texels(kernel, mode, mu, alpha, eta, *, dist, shadowing, ftype, fp0, fp1, effort, seed,
@@ -32,14 +32,8 @@ def launch_texels(kernel, mode, mu, alpha, eta, *, dist, shadowing, ftype, fp0, 
     error = wp.zeros((n, 2), dtype=wp.float64, device=dev)
     extra_w = [wp.array(np.ascontiguousarray(a, dtype=np.float64), dtype=wp.float64, device=dev) for a in extra]
 
-    def launch(idx):
-        wp.launch(
-            kernel,
-            dim=idx.shape[0],
-            inputs=[idx, mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
-                    float(fp0), float(fp1), int(effort), int(seed), value, error, *extra_w],
-            device=dev,
-        )
+    launch = chunk_launcher(kernel, [mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
+                                     float(fp0), float(fp1), int(effort), int(seed), value, error, *extra_w], dev)
 
     # fixed cost per texel: small chunks only to spread the work over the workers
     run_chunks(n, launch, dev, workers=workers, progress=progress)

@@ -467,6 +467,9 @@ def transmission_breaks(p: TexelParams, theta_i: wp.float64, cands: vec24d, ncan
                 glo = ga
                 for _it in range(60):
                     mid = wp.float64(0.5) * (lo + hi)
+                    if mid <= lo or mid >= hi:
+                        # lo and hi are adjacent doubles: no later step changes them
+                        break
                     gm = _t_gap(p, theta_i, mid, which)
                     if (gm > wp.float64(0.0)) == (glo > wp.float64(0.0)):
                         lo = mid
