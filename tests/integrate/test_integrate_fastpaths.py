@@ -2,9 +2,9 @@
 
 Each shortcut must give the value of the general computation it replaces (bit for bit, or within
 the last bits where said): the phi cosine :func:`cos_0_pi` against the C library's ``cos``
-(through NumPy, and mpmath where they differ); the one-interval return of the global bisection
-against the same interval run through the general path; :func:`gk_error_decay`'s pow-free
-branches against the formula d min(1, safety r^power) written in NumPy.
+(through NumPy, and mpmath near pi/2); :func:`gk_error_decay`'s pow-free branches against the
+formula d min(1, safety r^power) written in NumPy. The one-interval return of the global
+bisection is tested in ``test_integrate_quadrature.py`` against the general path.
 """
 
 import math
@@ -14,7 +14,7 @@ import pytest
 import warp as wp
 
 from bsdf_tab.integrate.integrand import cos_0_pi
-from bsdf_tab.integrate.quadrature import WG7_D, WGK_D, XGK_D, gk_error, gk_error_decay, make_global_bisection
+from bsdf_tab.integrate.quadrature import gk_error_decay
 
 wp.init()
 
@@ -49,68 +49,6 @@ def test_cos_0_pi_is_libm_cos_within_one_ulp_of_one():
     yn = y[np.abs(x - math.pi / 2.0) < 1e-9][::20]
     exact = np.array([float(mpmath.cos(mpmath.mpf(float(v)))) for v in near])
     assert np.all(np.abs(yn - exact) <= 4.0 * np.spacing(np.abs(exact))), np.max(np.abs(yn - exact) / np.spacing(np.abs(exact)))
-
-
-@wp.func
-def _rule(p: wp.vec2d, x: wp.float64, a: wp.float64, b: wp.float64):
-    """G7-K15 of (sqrt(t), t^2) over [a, b], QUADPACK's estimate; cost 1 per application."""
-    half = wp.float64(0.5)
-    ctr = half * (a + b)
-    hl = half * (b - a)
-    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for j in range(15):
-        jj = j
-        sgn = wp.float64(1.0)
-        if j >= 8:
-            jj = j - 8
-            sgn = wp.float64(-1.0)
-        t = ctr + sgn * hl * XGK_D[jj]
-        f = wp.vec2d(wp.sqrt(wp.max(t, wp.float64(0.0))), t * t)
-        rk += WGK_D[jj] * f
-        rg += WG7_D[jj] * f
-    # resasc = |K| (a coarse stand-in; both paths below use the same rule)
-    return rk * hl, gk_error(rk * hl, rg * hl, wp.vec2d(wp.abs(rk[0]), wp.abs(rk[1])) * hl, 0), int(1)
-
-
-_bisect = make_global_bisection(_rule)
-
-
-@wp.kernel
-def _paths_kernel(tol: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
-    t = wp.tid()
-    zero = wp.float64(0.0)
-    one = wp.float64(1.0)
-    # the same interval [0, 1]: alone (the one-interval return), and beside two empty ones (the
-    # general path, which builds the stacks first)
-    r1, e1, c1, f1 = _bisect(wp.vec2d(zero, zero), zero, wp.vec2d(zero, one), 1, tol[t], 400, int(0))
-    r3, e3, c3, f3 = _bisect(wp.vec2d(zero, zero), zero, wp.vec4d(zero, one, one, one), 3, tol[t], 400, int(0))
-    out[t, 0] = r1[0]
-    out[t, 1] = r1[1]
-    out[t, 2] = e1[0]
-    out[t, 3] = e1[1]
-    out[t, 4] = wp.float64(c1)
-    out[t, 5] = wp.float64(f1)
-    out[t, 6] = r3[0]
-    out[t, 7] = r3[1]
-    out[t, 8] = e3[0]
-    out[t, 9] = e3[1]
-    out[t, 10] = wp.float64(c3)
-    out[t, 11] = wp.float64(f3)
-
-
-def test_one_interval_return_is_the_general_path_bit_for_bit():
-    tols = np.array([1e-1, 1e-2, 1e-4, 1e-8, 1e-12])
-    out = wp.zeros((tols.size, 12), dtype=wp.float64, device="cpu")
-    wp.launch(_paths_kernel, dim=tols.size, inputs=[wp.array(tols, dtype=wp.float64, device="cpu"), out], device="cpu")
-    out = out.numpy()
-    assert np.array_equal(out[:, :6], out[:, 6:]), out
-    # the loosest tolerance is met by the first rule (one application, no refinement), the
-    # tightest needs bisections: both branches of the shortcut are exercised
-    assert out[0, 4] == 1 and out[0, 5] == 0
-    assert out[-1, 4] > 3 and out[-1, 5] == out[-1, 4] - 1
-    # and the values are the integrals (2/3 and 1/3) within the reported errors
-    assert np.all(np.abs(out[:, :2] - [2.0 / 3.0, 1.0 / 3.0]) <= out[:, 2:4] + 1e-15)
 
 
 @wp.kernel

@@ -125,6 +125,18 @@ def test_global_bisection_meets_the_tolerance_honestly(tol):
     assert np.all(np.abs(out[:, 1] - 1.0 / 3.0) < 1e-15)
 
 
+def test_one_interval_return_is_the_general_path_bit_for_bit():
+    # issue 14, fifth round: one initial interval returns when its first rule is accepted, before
+    # the stacks are built; the same interval beside two empty ones takes the general path
+    for tol in (1e-1, 1e-2, 1e-4, 1e-8, 1e-12):
+        one, general = _run([((0.0, 1.0, 0.0, 0.0), 1, 400), ((0.0, 1.0, 1.0, 1.0), 3, 400)], tol)
+        assert np.array_equal(one, general), (tol, one, general)
+        if tol == 1e-1:
+            assert one[4] == 1 and one[5] == 0  # accepted at once: both branches are exercised
+        if tol == 1e-12:
+            assert one[4] > 3
+
+
 # ------------------------------------------------------------------ the decay-ratio estimate (issue 14)
 
 
