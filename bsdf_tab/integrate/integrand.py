@@ -31,9 +31,15 @@ from typing import Any
 import warp as wp
 
 from ..model.distribution import D, dcos_tan_of_v, lambda_cos
-from ..model.fresnel import FRESNEL_CONDUCTOR, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK, fresnel, fresnel_dielectric
-from ..model.frame import refract_k2
-from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_from_lambda
+from ..model.fresnel import (
+    FRESNEL_CONDUCTOR,
+    FRESNEL_DIELECTRIC,
+    FRESNEL_SCHLICK,
+    fresnel,
+    fresnel_dielectric,
+    fresnel_dielectric_refract,
+)
+from ..model.shadowing import smith_G_over_cos_i_equal, smith_G_over_cos_i_to
 
 MODES = {"reflect": 0, "dielectric": 1, "dfg": 2}
 """Integrand families: name -> the ``mode`` selector of the kernels."""
@@ -160,13 +166,14 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
     one = wp.float64(1.0)
     out = wp.vec2d(zero, zero)
     f_d = zero
+    d = zero
+    refracts = False
     if p.mode == MODE_DIELECTRIC:
-        # one Fresnel for both channels
-        f_d = fresnel_dielectric(c, p.eta)
+        # one Fresnel for both channels, sharing its root and division with the refraction
+        f_d, d, refracts = fresnel_dielectric_refract(c, p.eta)
     zo = wp.float64(2.0) * c * cm - p.mu
     if zo > zero:
-        lo = lambda_cos(zo, p.alpha, p.dist)
-        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, zo, lo, p.shadowing) * jac
+        g = smith_G_over_cos_i_to(p.mu, p.li, zo, p.alpha, p.dist, p.shadowing) * jac
         if p.mode == MODE_DFG:
             w = one - c
             w5 = w * w * w * w * w
@@ -175,22 +182,17 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
             out = wp.vec2d(f_d * g, zero)
         else:
             out = wp.vec2d(fresnel(c, p.ftype, p.fp0, p.fp1) * g, zero)
-    if p.mode == MODE_DIELECTRIC:
-        k2 = refract_k2(c, p.eta)
-        if k2 > zero:
-            # not totally reflected: o_t = (c/eta - sqrt(k2)) m - i/eta, with c/eta - sqrt(k2)
-            # rationalized so that its sign is exact near eta = 1 (it is 0 at eta = 1)
-            d = (one - p.eta) * (one + p.eta) / (p.eta * p.eta) / (c / p.eta + wp.sqrt(k2))
-            zt = d * cm - p.mu / p.eta
-            g = zero
-            if zt < zero:
-                azt = -zt
-                lt = lambda_cos(azt, p.alpha, p.dist)
-                g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azt, lt, p.shadowing) * jac
-            elif d == zero and p.mu == zero:
-                # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
-                g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
-            out = wp.vec2d(out[0], (one - f_d) * g)
+    if refracts:
+        # not totally reflected: o_t = (d / eta) m - i / eta, d = eta (c / eta - sqrt(k2)) in a
+        # rationalized form whose sign is exact near eta = 1 (it is 0 at eta = 1)
+        zt = (d * cm - p.mu) / p.eta
+        g = zero
+        if zt < zero:
+            g = smith_G_over_cos_i_to(p.mu, p.li, -zt, p.alpha, p.dist, p.shadowing) * jac
+        elif d == zero and p.mu == zero:
+            # eta = 1 at grazing: o_t = -i exactly; G / mu by its mu -> 0+ limit
+            g = smith_G_over_cos_i_equal(p.mu, p.li, p.shadowing) * jac
+        out = wp.vec2d(out[0], (one - f_d) * g)
     return out
 
 
@@ -352,7 +354,7 @@ def o_terms(p: TexelParams, o: wp.vec3d):
             # chi+: back-facing micro-facet
             return out
         zo = o[2]
-        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, zo, lambda_cos(zo, p.alpha, p.dist), p.shadowing)
+        g = smith_G_over_cos_i_to(p.mu, p.li, zo, p.alpha, p.dist, p.shadowing)
         v = g * D(h[2], p.alpha, p.dist) * wp.float64(0.25)
         if p.mode == MODE_DFG:
             w = one - c
@@ -380,7 +382,7 @@ def o_terms(p: TexelParams, o: wp.vec3d):
             # half-vector singularity (eta = 1 limit)
             return out
         azo = -o[2]
-        g = smith_G_over_cos_i_from_lambda(p.mu, p.li, azo, lambda_cos(azo, p.alpha, p.dist), p.shadowing)
+        g = smith_G_over_cos_i_to(p.mu, p.li, azo, p.alpha, p.dist, p.shadowing)
         t = ci * (-co) * p.eta * p.eta * (one - fresnel_dielectric(ci, p.eta)) * g * D(h[2], p.alpha, p.dist)
         return wp.vec2d(zero, t / (den * den))
     return out

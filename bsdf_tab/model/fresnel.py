@@ -51,6 +51,41 @@ def fresnel_dielectric(cos_i: Any, eta: Any):
 
 
 @wp.func
+def fresnel_dielectric_refract(cos_i: Any, eta: Any):
+    """(F, d, refracts): the exact dielectric Fresnel and the refraction through the same facet.
+
+    ``cos_i`` = i.m > 0, ``eta`` = eta_t / eta_i. With c = min(cos_i, 1), e = (eta - 1)(eta + 1)
+    and g = sqrt(e + c^2) (Walter et al. 2007 eq. 22) one division q = 1 / (g + c) gives
+    both (issue 14):
+
+    * F = a^2 (1 + b^2) / 2 with a = (g - c) / (g + c) = e q^2 and b = (c (g + c) - 1) / (c e q + 1):
+      :func:`fresnel_dielectric`'s value without its cancellation in g - c near eta = 1;
+    * the refracted direction o_t = d' m - i / eta (Walter eq. 40) has
+      d' = c / eta - sqrt(k2) = -e q / eta (sqrt(k2) = g / eta); returned as d = -e q = eta d'.
+
+    ``refracts`` is False under total internal reflection (g^2 <= 0: F = 1, d = 0).
+    """
+    zero = type(eta)(0.0)
+    one = type(eta)(1.0)
+    c = wp.min(wp.abs(cos_i), one)
+    e = (eta - one) * (eta + one)  # no cancellation near eta = 1
+    if e == zero:
+        # no interface: nothing reflected, o_t = -i (none at c = 0, as refract_k2 = 0 there)
+        return zero, zero, c > zero
+    g2 = e + c * c
+    if g2 <= zero:
+        # total internal reflection (g2 = 0 is the critical angle, where F = 1 too)
+        return one, zero, False
+    g = wp.sqrt(g2)
+    # g + c > 0: g2 > 0 here
+    q = one / (g + c)
+    a = e * q * q
+    # c e q + 1 = c (g - c) + 1 >= 1 - c^2 + c g > 0 (g > 0)
+    b = (c * (g + c) - one) / (c * e * q + one)
+    return type(eta)(0.5) * a * a * (one + b * b), -e * q, True
+
+
+@wp.func
 def fresnel_conductor(cos_i: Any, eta: Any, k: Any):
     """Exact unpolarized Fresnel for a conductor of complex relative IOR eta + i k."""
     zero = type(eta)(0.0)

@@ -55,6 +55,17 @@ def ggx_lambda_cos(cos_theta_v: Any, alpha: Any):
 
 
 @wp.func
+def ggx_lambda_root(cos_theta_v: Any, alpha: Any):
+    """r = sqrt(z^2 + alpha^2 s^2) = |cos| (1 + 2 Lambda(v)), z = |cos|, s^2 = 1 - z^2.
+
+    The one square root of the GGX Lambda: |cos| Lambda = (r - z) / 2 and |cos| + |cos| Lambda =
+    (z + r) / 2, so G can be formed from r with one division and no cancellation (``shadowing``).
+    """
+    z = wp.abs(cos_theta_v)
+    return wp.sqrt(z * z + alpha * alpha * wp.max(type(alpha)(0.0), type(alpha)(1.0) - z * z))
+
+
+@wp.func
 def ggx_lambda(cos_theta_v: Any, alpha: Any):
     """Smith Lambda(v) = (-1 + sqrt(1 + alpha^2 tan^2)) / 2 (exact, infinite at grazing)."""
     z = wp.abs(cos_theta_v)

@@ -10,7 +10,8 @@ from typing import Any
 
 import warp as wp
 
-from .distribution import lambda_cos
+from .distribution import GGX, lambda_cos
+from .ggx import ggx_lambda_root
 
 SHADOWINGS = {"separable": 0, "correlated": 1}
 """name (the spec's ``shadowing``) -> integer id, the ``shadowing`` selector below."""
@@ -36,6 +37,33 @@ def smith_G_over_cos_i_from_lambda(zi: Any, li: Any, zo: Any, lo: Any, shadowing
             return type(zi)(1.0) / zi
         return zero
     return zo / den
+
+
+@wp.func
+def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32, shadowing: wp.int32):
+    """G / zi from zi = |cos_i|, li = zi Lambda_i (known) and the other direction's zo = |cos_o|.
+
+    The value of :func:`smith_G_over_cos_i_from_lambda` with lo = lambda_cos(zo), for an
+    integrand that knows Lambda_i once per texel. For GGX it is formed from the root
+    r = sqrt(zo^2 + alpha^2 (1 - zo^2)) = zo (1 + 2 Lambda_o) with one division (issue 14):
+    correlated G / zi = 2 zo / (zo (zi + 2 li) + zi r), separable 2 zo / ((zi + li)(zo + r)),
+    sums of non-negative terms (no cancellation); other distributions use their lambda_cos.
+    """
+    if dist != GGX:
+        return smith_G_over_cos_i_from_lambda(zi, li, zo, lambda_cos(zo, alpha, dist), shadowing)
+    zero = zi * type(zi)(0.0)
+    r = ggx_lambda_root(zo, alpha)
+    den = zero
+    if shadowing == CORRELATED:
+        den = zo * (zi + type(zi)(2.0) * li) + zi * r
+    else:
+        den = (zi + li) * (zo + r)
+    if den <= zero:
+        # only with alpha = 0 at grazing: the mirror value, as smith_G_over_cos_i_from_lambda
+        if zi > zero:
+            return type(zi)(1.0) / zi
+        return zero
+    return type(zi)(2.0) * zo / den
 
 
 @wp.func
