@@ -246,11 +246,13 @@ def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64
     """
     cp = cos_0_pi(phi)
     c = p.sin_i * sm * cp + p.mu * cm
-    if c <= wp.float64(0.0):
-        # chi+(i.m): i sees the back of the micro-facet
-        return wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    # (i.m) / cos(theta_m), written without the division
-    return terms(p, c, cm, p.sin_i * tm * cp + p.mu)
+    if c > wp.float64(0.0):
+        # (i.m) / cos(theta_m), written without the division
+        return terms(p, c, cm, p.sin_i * tm * cp + p.mu)
+    # chi+(i.m): i sees the back of the micro-facet; or c is nan, at a node rounded onto v = 1
+    # (tan theta_m = inf, sin = inf * 0), where D cos has no mass: 0, as the forms before the
+    # fused Fresnel gave there through their nan comparisons
+    return wp.vec2d(wp.float64(0.0), wp.float64(0.0))
 
 
 @wp.func

@@ -49,20 +49,17 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
     correlated G / zi = 2 zo / (zo (zi + 2 li) + zi r), separable 2 zo / ((zi + li)(zo + r)),
     sums of non-negative terms (no cancellation); other distributions use their lambda_cos.
     """
-    if dist != GGX:
-        return smith_G_over_cos_i_from_lambda(zi, li, zo, lambda_cos(zo, alpha, dist), shadowing)
     zero = zi * type(zi)(0.0)
-    r = ggx_lambda_root(zo, alpha)
     den = zero
-    if shadowing == CORRELATED:
-        den = zo * (zi + type(zi)(2.0) * li) + zi * r
-    else:
-        den = (zi + li) * (zo + r)
+    if dist == GGX:
+        r = ggx_lambda_root(zo, alpha)
+        if shadowing == CORRELATED:
+            den = zo * (zi + type(zi)(2.0) * li) + zi * r
+        else:
+            den = (zi + li) * (zo + r)
     if den <= zero:
-        # only with alpha = 0 at grazing: the mirror value, as smith_G_over_cos_i_from_lambda
-        if zi > zero:
-            return type(zi)(1.0) / zi
-        return zero
+        # another distribution, or GGX with alpha = 0 at grazing (the mirror value and its guard)
+        return smith_G_over_cos_i_from_lambda(zi, li, zo, lambda_cos(zo, alpha, dist), shadowing)
     return type(zi)(2.0) * zo / den
 
 
