@@ -137,8 +137,8 @@ def run(tols, variants, quick=False, out_dir: Path = DEFAULT_OUT, workers=None):
                 err = np.abs(v[:, :ch] - rv[:, :ch])
                 ratio = (err - re[:, :ch]) / np.maximum(e[:, :ch], 1e-300)  # reported errors are >= 1e-10
                 evals.append(c)
-                bad += int((ratio > 1.0).sum())
-                maxerr = max(maxerr, float(err.max()))
+                bad += int((~(ratio <= 1.0)).sum())  # a nan value (or bound) is dishonest too
+                maxerr = max(maxerr, float(err.max()) if np.isfinite(err).all() else np.inf)
                 if ratio.max() > worst:
                     worst, worst_set = float(ratio.max()), label
             c = np.concatenate(evals)
