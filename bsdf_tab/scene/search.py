@@ -29,12 +29,14 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from typing import Callable
 
 import numpy as np
 
 from ..errors import SpecError, TexelLimitError
 from ..spec import channel_names
+from .bounds import CERT_MARGIN, Certificates, rung
 from .lookup import AxisPlan, lookup, texels_read
 
 __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine", "search"]
@@ -42,6 +44,7 @@ __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine"
 PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
 MAX_NODES = 1025
 MAX_CHECK_TEXELS = 300_000
+MAX_PROBES = 8  # line probes per decision of a failed candidate's child (.bounds)
 
 
 def combine(kind: str, diffs: dict, errs: dict) -> np.ndarray:
@@ -60,6 +63,7 @@ class Verifier:
         self.base = {k: v for k, v in tp.spec().items() if k != "axes"}
         self.interp = [i for i, a in enumerate(tp.axes) if a.mode == "interp"]
         self.chans = list(channel_names(tp.kind))
+        self.probes = 0  # lines checked only to certify candidates (search's probe)
 
     def trial(self, combo, sizes) -> list[AxisPlan]:
         """The axes of a candidate (spacings ``combo``, node counts ``sizes`` of the interp axes)."""
@@ -96,21 +100,25 @@ class Verifier:
             total = np.maximum(total, combine(self.tp.kind, diffs, errs))
         return total
 
-    def cross(self, trial: list[AxisPlan]):
+    def cross(self, trial: list[AxisPlan], certs: Certificates | None = None, target: float = 0.0):
         """(per interp axis: the max error at the points that are midpoints along it only,
-        and that point's coordinates)."""
+        and that point's coordinates). ``certs``: record the failing points (above ``target``)."""
         coarse = [a.nodes() for a in trial]
         fine = self.fine(trial)
         crosses = [[fine[j] if j == i else c for j, c in enumerate(coarse)] for i in self.interp]
         self.prefetch([coarse] + crosses)
         table = self.values(coarse)
         per_axis, worst = [], []
-        for i, lists in zip(self.interp, crosses):
+        discrete = tuple(j for j in range(len(trial)) if j not in self.interp)
+        sizes = tuple(trial[j].size for j in self.interp)
+        for pos, (i, lists) in enumerate(zip(self.interp, crosses)):
             err = self.errors(trial, table, lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             k = np.unravel_index(int(np.argmax(sub)), sub.shape)
             per_axis.append(float(sub[k]))
             worst.append([float(lists[j][2 * k[j] + 1 if j == i else k[j]]) for j in range(len(lists))])
+            if certs is not None:  # the worst over the discrete axes (the same in every candidate)
+                certs.add_cross(pos, sizes, sub.max(axis=discrete) if discrete else sub, target, worst[-1])
         return per_axis, worst
 
     def partial(self, trial: list[AxisPlan], reads: list[np.ndarray]) -> dict[str, np.ndarray]:
@@ -125,20 +133,24 @@ class Verifier:
             out[ch] = arr
         return out
 
-    def line(self, trial: list[AxisPlan], worst_parent: list[list[float]]):
+    def line(self, trial: list[AxisPlan], worst_parent: list[list[float]], certs: Certificates | None = None,
+             target: float = 0.0, positions: list[int] | None = None):
         """(lower bound of the error, per interp axis the worst point found) on the lines of the
         refined grid through ``worst_parent`` (per interp axis, a point whose coordinates on the
         other axes are nodes of ``trial``). Only the texels of those lines and the nodes their
-        lookup reads are computed."""
+        lookup reads are computed. ``positions``: only the lines along these interp axes
+        (indices into the interp axes; default all). ``certs``: record a line above ``target``."""
+        positions = list(range(len(self.interp))) if positions is None else positions
         fine = self.fine(trial)
         lines = [[fine[i] if j == i else np.array([x]) for j, x in enumerate(worst_parent[k])]
-                 for k, i in enumerate(self.interp)]
+                 for k, i in ((k, self.interp[k]) for k in positions)]
         both = self.interpolation == "nearest"
         reads = [[texels_read(a, x, self.interpolation, both) for a, x in zip(trial, lists)] for lists in lines]
         nodes = [a.nodes() for a in trial]
         self.prefetch(lines + [[n[r] for n, r in zip(nodes, rd)] for rd in reads])
         bound, worst = 0.0, []
-        for k, (i, lists, rd) in enumerate(zip(self.interp, lines, reads)):
+        for k, lists, rd in zip(positions, lines, reads):
+            i = self.interp[k]
             err = self.errors(trial, self.partial(trial, rd), lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             j = int(np.argmax(sub))
@@ -146,7 +158,19 @@ class Verifier:
             pt = list(worst_parent[k])
             pt[i] = float(fine[i][2 * j + 1])
             worst.append(pt)
+            if certs is not None and sub.ravel()[j] > target + CERT_MARGIN:  # the line's rungs elsewhere
+                other = tuple(rung(int(np.argmin(np.abs(nodes[q] - pt[q]))), trial[q].size) for q in self.interp)
+                certs.add(k, trial[i].size, other, float(sub.ravel()[j]), pt)
         return bound, worst
+
+    def on_nodes(self, trial: list[AxisPlan], point: list[float], skip: int) -> bool:
+        """Whether ``point`` is at nodes of ``trial`` on every interp axis but position ``skip``."""
+        for k, i in enumerate(self.interp):
+            if k != skip:
+                nodes = trial[i].nodes()
+                if np.min(np.abs(nodes - point[i])) > 1e-12 * max(1.0, float(np.max(np.abs(nodes)))):
+                    return False
+        return True
 
     def full(self, trial: list[AxisPlan]) -> float:
         """The candidate's error over its whole refined grid."""
@@ -196,31 +220,68 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
         grown = tuple(2 * n - 1 if j == k else n for j, n in enumerate(sizes))
         heapq.heappush(heap, (int(np.prod(grown)), ci, grown, next(seq), "verify", worst))
 
+    def defer(ci, sizes) -> None:
+        """A failed candidate whose child is undecided: filed under the smallest candidate its
+        chain can still pass with (.bounds), decided when the best-first order gets there."""
+        heapq.heappush(heap, (certs[ci].cone_bound(sizes), ci, sizes, next(seq), "grow", None))
+
+    def probe(ci, sizes, key) -> bool:
+        """Before a failed candidate's cross points decide its child: try to certify the smallest
+        candidates its chain could still pass with, each by one line (along an axis through the
+        last failing point found along it, :meth:`.bounds.Certificates.hint`). True: the bound
+        rose above ``key`` and the chain is filed again under it."""
+        c = certs[ci]
+        for _ in range(MAX_PROBES):
+            bound, nxt = c.cone_min(sizes)
+            if bound > key:
+                heapq.heappush(heap, (bound, ci, sizes, next(seq), "grow", None))
+                return True
+            trial = v.trial(combos[ci], nxt)
+            # the axis whose last failing point erred most (relative to the target, per doubling)
+            hints = [(h[1] / 4.0 ** math.log2((nxt[k] - 1) / (h[0] - 1)), k) for k, h in enumerate(c.hints)
+                     if h is not None and v.on_nodes(trial, h[2], k)]
+            if not hints:
+                return False
+            _, k = max(hints)
+            point = [None] * len(interp)
+            point[k] = c.hint(k)[2]
+            v.probes += 1
+            err, _ = v.line(trial, point, c, target, positions=[k])
+            if err <= target + CERT_MARGIN:
+                return False
+        return False
+
+    certs = [Certificates(len(interp), MAX_NODES) for _ in combos]
     best, limited = None, False
     while heap:
         texels, ci, sizes, _, what, info = heapq.heappop(heap)
         trial = v.trial(combos[ci], sizes)
         if what == "grow":  # a failed candidate whose child may now be next: decide which axis
-            grow(ci, sizes, *v.cross(trial))
+            if len(interp) > 1 and probe(ci, sizes, texels):
+                continue
+            grow(ci, sizes, *v.cross(trial, certs[ci], target))
             continue
         if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
             limited = True  # checked before anything is computed
             continue
         if int(np.prod([2 * n - 1 for n in sizes])) * discrete > MAX_CHECK_TEXELS or any(n > MAX_NODES for n in sizes):
             continue
+        certified = certs[ci].fails(sizes) if interp else None
+        if certified is not None:  # fails at a point already checked: nothing to compute
+            say(ci, sizes, certified, False, True)
+            defer(ci, sizes)
+            continue
         if info is not None:
-            bound, worst = v.line(trial, info)
+            bound, worst = v.line(trial, info, certs[ci], target)
             if bound > target:
                 say(ci, sizes, bound, False, True)
                 if len(sizes) == 1:
                     grow(ci, sizes, [bound], worst)
                 else:
-                    smallest = min(int(np.prod([2 * m - 1 if q == j else m for q, m in enumerate(sizes)]))
-                                   for j in range(len(sizes)))
-                    heapq.heappush(heap, (smallest, ci, sizes, next(seq), "grow", None))
+                    defer(ci, sizes)
                 continue
         if interp:
-            per_axis, worst = v.cross(trial)
+            per_axis, worst = v.cross(trial, certs[ci], target)
             if max(per_axis) > target:
                 say(ci, sizes, max(per_axis), False, True)
                 grow(ci, sizes, per_axis, worst)
