@@ -44,6 +44,7 @@ __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine"
 PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
 MAX_NODES = 1025
 MAX_CHECK_TEXELS = 300_000
+WINDOW = 3  # a line check looks first at the midpoints within 3 refined nodes of its point
 MAX_PROBES = 8  # line probes per decision of a failed candidate's child (.bounds)
 
 
@@ -138,30 +139,46 @@ class Verifier:
         """(lower bound of the error, per interp axis the worst point found) on the lines of the
         refined grid through ``worst_parent`` (per interp axis, a point whose coordinates on the
         other axes are nodes of ``trial``). Only the texels of those lines and the nodes their
-        lookup reads are computed. ``positions``: only the lines along these interp axes
-        (indices into the interp axes; default all). ``certs``: record a line above ``target``."""
+        lookup reads are computed, and first only a few midpoints around each point
+        (``WINDOW``): a line is checked whole only where none of them is above ``target``.
+        ``positions``: only the lines along these interp axes (indices into the interp axes;
+        default all). ``certs``: record a failing point (:mod:`.bounds`)."""
         positions = list(range(len(self.interp))) if positions is None else positions
         fine = self.fine(trial)
-        lines = [[fine[i] if j == i else np.array([x]) for j, x in enumerate(worst_parent[k])]
-                 for k, i in ((k, self.interp[k]) for k in positions)]
+        mids = {}
+        for k in positions:
+            f = fine[self.interp[k]]
+            c = int(np.argmin(np.abs(f - worst_parent[k][self.interp[k]])))
+            odd = [m for m in range(c - WINDOW, c + WINDOW + 1) if m % 2 == 1 and 0 < m < len(f) - 1]
+            mids[k] = f[odd]
+        found = self._lines(trial, worst_parent, positions, mids, certs, target)
+        rest = [k for k in positions if found[k][0] <= target + CERT_MARGIN]
+        if rest:
+            found.update(self._lines(trial, worst_parent, rest, {k: fine[self.interp[k]][1::2] for k in rest},
+                                     certs, target))
+        return max(found[k][0] for k in positions), [found[k][1] for k in positions]
+
+    def _lines(self, trial, points, positions, mids, certs, target) -> dict[int, tuple[float, list[float]]]:
+        """Per position k: (the max error, its point) at the midpoints ``mids[k]`` along interp axis
+        k through ``points[k]``, with only the texels those points and their lookup read."""
+        lines = [[mids[k] if j == self.interp[k] else np.array([x]) for j, x in enumerate(points[k])]
+                 for k in positions]
         both = self.interpolation == "nearest"
         reads = [[texels_read(a, x, self.interpolation, both) for a, x in zip(trial, lists)] for lists in lines]
         nodes = [a.nodes() for a in trial]
         self.prefetch(lines + [[n[r] for n, r in zip(nodes, rd)] for rd in reads])
-        bound, worst = 0.0, []
+        out = {}
         for k, lists, rd in zip(positions, lines, reads):
             i = self.interp[k]
-            err = self.errors(trial, self.partial(trial, rd), lists)
-            sub = err[(slice(None),) * i + (slice(1, None, 2),)]
-            j = int(np.argmax(sub))
-            bound = max(bound, float(sub.ravel()[j]))
-            pt = list(worst_parent[k])
-            pt[i] = float(fine[i][2 * j + 1])
-            worst.append(pt)
-            if certs is not None and sub.ravel()[j] > target + CERT_MARGIN:  # the line's rungs elsewhere
+            err = self.errors(trial, self.partial(trial, rd), lists).ravel()
+            j = int(np.argmax(err))
+            pt = list(points[k])
+            pt[i] = float(mids[k][j])
+            out[k] = (float(err[j]), pt)
+            if certs is not None and err[j] > target + CERT_MARGIN:  # the line's rungs elsewhere
                 other = tuple(rung(int(np.argmin(np.abs(nodes[q] - pt[q]))), trial[q].size) for q in self.interp)
-                certs.add(k, trial[i].size, other, float(sub.ravel()[j]), pt)
-        return bound, worst
+                certs.add(k, trial[i].size, other, float(err[j]), pt)
+        return out
 
     def on_nodes(self, trial: list[AxisPlan], point: list[float], skip: int) -> bool:
         """Whether ``point`` is at nodes of ``trial`` on every interp axis but position ``skip``."""
