@@ -65,6 +65,7 @@ class Verifier:
         self.interp = [i for i, a in enumerate(tp.axes) if a.mode == "interp"]
         self.chans = list(channel_names(tp.kind))
         self.probes = 0  # lines checked only to certify candidates (search's probe)
+        self.certified = 0  # candidates failed by a certificate, without a texel computed
 
     def trial(self, combo, sizes) -> list[AxisPlan]:
         """The axes of a candidate (spacings ``combo``, node counts ``sizes`` of the interp axes)."""
@@ -226,11 +227,11 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
             for ci in range(len(combos))]
     heapq.heapify(heap)
 
-    def say(ci, sizes, err: float, ok: bool, bound: bool = False) -> None:
+    def say(ci, sizes, err: float, ok: bool, bound: bool = False, certified: bool = False) -> None:
         if log is not None:
             shape = " x ".join(f"{a.name} {n} {sp}" for a, n, sp in zip(interp, sizes, combos[ci])) or "discrete axes only"
             log(f"{tp.file}: {shape}: lookup error {'>= ' if bound else ''}{err:.3g} "
-                f"({'ok' if ok else 'refine'}; target {target:.3g})")
+                f"({'ok' if ok else 'refine'}{', certified' if certified else ''}; target {target:.3g})")
 
     def grow(ci, sizes, per_axis, worst) -> None:
         k = int(np.argmax(per_axis))
@@ -285,7 +286,8 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
             continue
         certified = certs[ci].fails(sizes) if interp else None
         if certified is not None:  # fails at a point already checked: nothing to compute
-            say(ci, sizes, certified, False, True)
+            v.certified += 1
+            say(ci, sizes, certified, False, True, True)
             defer(ci, sizes)
             continue
         if info is not None:

@@ -7,6 +7,7 @@ reuse: every candidate verified on its whole refined grid, each one tabulated di
 from __future__ import annotations
 
 import itertools
+import re
 
 import numpy as np
 import pytest
@@ -20,6 +21,25 @@ from bsdf_tab.scene.texels import cover
 GOLD = {"materials": [{"name": "gold", "type": "conductor", "eta": 0.18, "k": 3.42, "roughness": {"range": [0.3, 0.6]}}]}
 
 
+def _reference_errors(base: dict, axes: list[tuple[str, float, float]], combo, sizes):
+    """(the error at every point of the refined grid of the candidate, texels tabulated):
+    max |multilinear(even nodes) - value| + value's error, the refined grid (2n - 1 nodes per
+    axis) tabulated directly and read with SciPy in the texel coordinate."""
+    fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
+                 for (name, lo, hi), n, sp in zip(axes, sizes, combo)}
+    fine = tabulate(dict(base, axes=fine_axes))
+    value, error = fine.channels["E"], fine.channels["E_err"]
+    coarse = value[tuple(slice(None, None, 2) for _ in axes)]
+    coords = []
+    for (name, lo, hi), n, sp in zip(axes, sizes, combo):
+        g = np.sqrt if sp == "square" else (lambda x: x)
+        coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
+    interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
+    mesh = np.meshgrid(*coords, indexing="ij")
+    looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
+    return np.abs(looked - value) + error, value.size
+
+
 def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: float, spacings=("linear", "square")):
     """Best-first over (spacing per axis, doubling-ladder sizes): fewest texels first, ties the
     earlier spacing combination; verify on the refined grid (2n - 1 nodes per axis): error =
@@ -31,20 +51,8 @@ def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: flo
     while frontier:
         frontier.sort()
         _, ci, sizes = frontier.pop(0)
-        fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
-                     for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci])}
-        fine = tabulate(dict(base, axes=fine_axes))
-        texels += fine.channels["E"].size
-        value, error = fine.channels["E"], fine.channels["E_err"]
-        coarse = value[tuple(slice(None, None, 2) for _ in axes)]
-        coords = []
-        for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci]):
-            g = np.sqrt if sp == "square" else (lambda x: x)
-            coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
-        interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
-        mesh = np.meshgrid(*coords, indexing="ij")
-        looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
-        err = np.abs(looked - value) + error
+        err, n = _reference_errors(base, axes, combos[ci], sizes)
+        texels += n
         if err.max() <= 0.8 * tol:
             return combos[ci], sizes, float(err.max()), texels
         per_axis = []
@@ -62,7 +70,8 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
     counted = []
     real = bsdf_tab.api.tabulate
     monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
-    plan = plan_scene(GOLD, tol)
+    lines = []
+    plan = plan_scene(GOLD, tol, log=lines.append)
     monkeypatch.undo()
     (t,) = plan.tables
     base = dict(t.spec(), tolerance=t.integration_tol)
@@ -78,6 +87,13 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
     # reference does not even count the fixed-size comparison, which the plan includes)
     computed = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
     assert computed == plan.texels_computed and computed < 0.6 * ref_texels, (computed, ref_texels)
+    # every candidate failed by a certificate (no texel computed for it) does fail in full
+    certified = [re.search(r"mu (\d+) (\w+) x roughness (\d+) (\w+): lookup error >= ([\d.e+-]+)", line).groups()
+                 for line in lines if "certified" in line]
+    assert len(certified) == plan.candidates_certified > 0 and plan.line_probes > 0
+    for n_mu, sp_mu, n_r, sp_r, bound in certified:
+        err, _ = _reference_errors(base, [("mu", 0.0, 1.0), ("roughness", 0.3, 0.6)], (sp_mu, sp_r), (int(n_mu), int(n_r)))
+        assert err.max() > 0.8 * tol and err.max() >= float(bound) * (1 - 1e-3) - t.integration_tol, (n_mu, n_r, bound)
 
 
 def test_cover_is_exact():
