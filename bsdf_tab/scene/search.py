@@ -16,13 +16,24 @@ What it computes is kept small without changing what it decides (``docs/scenes.m
   target the candidate fails whatever its cell centres hold, so the centres are computed only
   for a candidate that may pass;
 - a candidate reached by doubling is first checked on the lines through its parent's worst
-  points (a few texels). A point above the target there fails it for sure; which axis its
-  child doubles is then decided only when that child could be the next candidate verified
-  (its smaller possible size comes up in the best-first order). A candidate of a spacing that
-  loses is so never refined at full cost beyond what the order needs.
+  points, and on each line first at the few midpoints next to that point (``WINDOW``). A point
+  above the target there fails it for sure;
+- a point above the target fails every candidate that looks it up from the same two texels
+  (a *certificate*, :mod:`.bounds`): a candidate certified to fail is failed without a texel
+  computed;
+- which axis a failed candidate's child doubles (its cross points, which cost texels) is
+  decided only when the best-first order reaches the smallest candidate its chain can still
+  pass with: the smallest one not certified to fail among those with at least its node counts
+  (:meth:`.bounds.Certificates.cone_bound`). Before deciding, the search tries to certify that
+  candidate with one line (``probe``: along an axis, through the last failing point found along
+  it); when the bound so rises past the others, the chain waits again. A spacing combination
+  that loses is so dropped after a few lines instead of its last, largest, cross checks.
 
-The candidates verified, their order and the winner are those of verifying every candidate on
-its full refined grid; the winner's reported error is computed on that full grid.
+The winner and its reported error (computed on its full refined grid) are those of verifying
+every candidate on its full refined grid in the best-first order: a certificate only fails
+candidates that fail, and a chain is put off only while some other pending candidate is
+smaller than any it can pass with. (The progress lines list fewer candidates: those of chains
+never resumed are not verified.)
 """
 
 from __future__ import annotations
@@ -44,7 +55,7 @@ __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine"
 PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
 MAX_NODES = 1025
 MAX_CHECK_TEXELS = 300_000
-WINDOW = 3  # a line check looks first at the midpoints within 3 refined nodes of its point
+WINDOW = 1  # a line check looks first at the midpoints next to its point (within 1 refined node)
 MAX_PROBES = 8  # line probes per decision of a failed candidate's child (.bounds)
 
 
