@@ -265,8 +265,11 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
             if bound > key:
                 heapq.heappush(heap, (bound, ci, sizes, next(seq), "grow", None))
                 return True
+            if nxt is None:  # every candidate it dominates is certified, and nothing else is left:
+                return False  # decided as the search without certificates would (caps, limits)
             trial = v.trial(combos[ci], nxt)
-            # the axis whose last failing point erred most (relative to the target, per doubling)
+            # the axis whose last failing point would still err most with nxt's nodes, if its error
+            # falls as h^2 (4x per doubling); h[0] >= 2 nodes, so h[0] - 1 >= 1 (no division by 0)
             hints = [(h[1] / 4.0 ** math.log2((nxt[k] - 1) / (h[0] - 1)), k) for k, h in enumerate(c.hints)
                      if h is not None and v.on_nodes(trial, h[2], k)]
             if not hints:

@@ -65,8 +65,8 @@ def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: flo
     raise AssertionError("no candidate passed")
 
 
-def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
-    tol = 4e-3
+@pytest.mark.parametrize("tol", [4e-3, 1.5e-3])
+def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch, tol):
     counted = []
     real = bsdf_tab.api.tabulate
     monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
