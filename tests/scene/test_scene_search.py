@@ -84,9 +84,10 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch, tol):
     direct = tabulate(dict(base, axes={a.name: a.spec() for a in t.axes}))
     assert np.abs(t.table.channels["E"] - direct.channels["E"]).max() <= 2 * t.integration_tol
     # and the reuse saved work: fewer texels than verifying every candidate in full (the
-    # reference does not even count the fixed-size comparison, which the plan includes)
+    # reference does not even count the fixed-size comparison, which the plan includes). 0.30
+    # of them at both tolerances; 0.40 / 0.38 before the certificates and windowed lines
     computed = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
-    assert computed == plan.texels_computed and computed < 0.6 * ref_texels, (computed, ref_texels)
+    assert computed == plan.texels_computed and computed < 0.35 * ref_texels, (computed, ref_texels)
     # every candidate failed by a certificate (no texel computed for it) does fail in full
     certified = [re.search(r"mu (\d+) (\w+) x roughness (\d+) (\w+): lookup error >= ([\d.e+-]+)", line).groups()
                  for line in lines if "certified" in line]
