@@ -266,32 +266,41 @@ print(json.dumps(out))
 """
 
 
-def breakdown(mode: str, repeats: int, env: dict, root: Path = REPO_ROOT) -> dict:
-    """Where the plan's time goes, from inside one process (medians of ``repeats`` runs):
-    interpreter start (``python -c pass``), the imports (NumPy, Warp, the rest of what ``plan``
-    imports, with the time of garbage collections during each), Warp's init, the kernel-module
-    loads, the planner (its tabulations' wall time, the kernel launches summed over threads),
-    the JSON output. The groups are planned one after the other here (``GROUP_THREADS = 1``) so
-    that the parts add up; the ``plan`` command above plans them on threads. ``mode``: ``paused`` imports as ``bsdf-tab`` does (collector paused),
-    ``plain`` with the collector running."""
-    runs = []
-    starts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
-        starts.append(time.perf_counter() - t0)
-        proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(root / "examples" / "scene.json"),
-                               "1e-3"], cwd=root,
-                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        if proc.returncode != 0:
-            raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
-        runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+def _breakdown_run(mode: str, env: dict, root: Path) -> dict:
+    """One breakdown run of ``root``'s plan (see :func:`breakdown`), with the interpreter start."""
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
+    start = time.perf_counter() - t0
+    proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(root / "examples" / "scene.json"),
+                           "1e-3"], cwd=root,
+                          env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
+    return dict(json.loads(proc.stdout.strip().splitlines()[-1]), interpreter_start=start)
+
+
+def _medians(runs: list[dict]) -> dict:
     lists = ("groups_cpu", "groups_evaluations")
     out = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in lists}
     for k in lists:
         out[k] = [statistics.median(g) for g in zip(*(r[k] for r in runs))]
-    out["interpreter_start"] = statistics.median(starts)
     return out
+
+
+def breakdown(mode: str, repeats: int, roots: list[Path]) -> dict:
+    """Where the plan's time goes, from inside one process (medians of ``repeats`` runs per
+    checkout, the checkouts interleaved): interpreter start (``python -c pass``), the imports
+    (NumPy, Warp, the rest of what ``plan`` imports, with the time of garbage collections during
+    each), Warp's init, the kernel-module loads, the planner (its tabulations' wall time, the
+    kernel launches summed over threads, the integrand evaluations), the JSON output. The groups
+    are planned one after the other here (``GROUP_THREADS = 1``) so that the parts add up; the
+    ``plan`` command above plans them on threads. ``mode``: ``paused`` imports as ``bsdf-tab``
+    does (collector paused), ``plain`` with the collector running."""
+    runs: dict[Path, list[dict]] = {root: [] for root in roots}
+    for _ in range(repeats):
+        for root in roots:
+            runs[root].append(_breakdown_run(mode, _environment("env", Path("."), root), root))
+    return {str(root): _medians(r) for root, r in runs.items()}
 
 
 def _print_breakdown(b: dict) -> None:
@@ -352,10 +361,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         return 2
     load0 = os.getloadavg()
     rows = measure(names, modes, args.repeats, roots)
-    parts = {}
-    if args.breakdown != "none":
-        for root in roots:
-            parts[str(root)] = breakdown(args.breakdown, args.repeats, _environment("env", Path("."), root), root)
+    parts = breakdown(args.breakdown, args.repeats, roots) if args.breakdown != "none" else {}
     print(f"load average at start: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f} ({os.cpu_count()} cores), "
           f"at end: {os.getloadavg()[0]:.2f}")
     print(f"{'checkout':<28} {'command':<14} {'bytecode':<8} {'wall s (median)':>16} {'cpu s':>8}  walls")
