@@ -7,6 +7,7 @@ reuse: every candidate verified on its whole refined grid, each one tabulated di
 from __future__ import annotations
 
 import itertools
+import json
 import re
 
 import numpy as np
@@ -134,3 +135,29 @@ def test_before_compute_sees_every_tabulation_and_can_stop_the_plan(monkeypatch)
         plan_scene(GOLD, 1e-3, before_compute=hook)
     # nothing was computed past the limit: the refused tabulation never ran
     assert sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted) <= 60
+
+
+NEAREST = {"lookup": {"interpolation": "nearest"},
+           "materials": [{"name": "p", "type": "schlick", "f0": 0.04, "alpha": {"range": [0.1, 0.3]}}]}
+GLASS_3D = {"materials": [{"name": "g", "type": "dielectric", "eta": {"range": [1.2, 1.6]}, "alpha": {"range": [0.1, 0.3]}}]}
+
+
+@pytest.mark.parametrize("scene, tol", [(NEAREST, 5e-2), (GLASS_3D, 2e-2)], ids=["nearest", "3-d"])
+def test_certificates_keep_the_plan_for_nearest_lookup_and_3d_tables(monkeypatch, scene, tol):
+    """The search with no certificate ever recorded is the search before them (the cone bound
+    is then the smallest child's size and no probe has a point to start from): the same plan,
+    bit for bit, with more texels. Nearest lookup (ties checked both ways) and three
+    interpolated axes are where the reference above does not reach."""
+    from bsdf_tab.io import json_default
+    from bsdf_tab.scene.bounds import Certificates
+
+    with_certs = plan_scene(scene, tol)
+    monkeypatch.setattr(Certificates, "add", lambda *args, **kwargs: None)
+    without = plan_scene(scene, tol)
+    dump = lambda p: json.dumps(p.to_dict(), default=json_default, sort_keys=True)  # noqa: E731
+    assert dump(with_certs) == dump(without)
+    for a, b in zip(with_certs.tables, without.tables):
+        for ch in a.table.channels:
+            assert a.table.channels[ch].tobytes() == b.table.channels[ch].tobytes()
+    assert with_certs.candidates_certified > 0 and without.candidates_certified == 0
+    assert with_certs.texels_computed < without.texels_computed
