@@ -63,7 +63,8 @@ class Certificates:
 
     def __init__(self, dims: int, max_nodes: int):
         ladder = [n for n in LADDER if n <= max_nodes]
-        self.points = np.array(list(itertools.product(ladder, repeat=dims)), dtype=np.int64).reshape(-1, dims)
+        combos = list(itertools.product(ladder, repeat=dims))  # [()] when dims = 0: one empty point
+        self.points = np.array(combos, dtype=np.int64).reshape(len(combos), dims)
         self.sizes = np.prod(self.points, axis=1)
         self.covered = np.zeros(len(self.points), dtype=bool)
         self.error = np.zeros(len(self.points))  # the largest certified error of a covered candidate

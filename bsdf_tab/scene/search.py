@@ -25,8 +25,8 @@ What it computes is kept small without changing what it decides (``docs/scenes.m
   decided only when the best-first order reaches the smallest candidate its chain can still
   pass with: the smallest one not certified to fail among those with at least its node counts
   (:meth:`.bounds.Certificates.cone_bound`). Before deciding, the search tries to certify that
-  candidate with one line (``probe``: along an axis, through the last failing point found along
-  it); when the bound so rises past the others, the chain waits again. A spacing combination
+  candidate with up to ``MAX_PROBES`` lines, each on the then smallest uncertified one within
+  the limits (``probe``: along an axis, through the last failing point found along it); when the bound so rises past the others, the chain waits again. A spacing combination
   that loses is so dropped after a few lines instead of its last, largest, cross checks.
 
 The winner and its reported error (computed on its full refined grid) are those of verifying
@@ -254,9 +254,18 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
         chain can still pass with (.bounds), decided when the best-first order gets there."""
         heapq.heappush(heap, (certs[ci].cone_bound(sizes), ci, sizes, next(seq), "grow", None))
 
+    def computable(sizes) -> bool:
+        """Whether a candidate is within the texel limit and the check caps (nothing is computed
+        for one that is not, by the search or by a probe)."""
+        if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
+            return False
+        refined = int(np.prod([2 * n - 1 for n in sizes])) * discrete
+        return refined <= MAX_CHECK_TEXELS and all(n <= MAX_NODES for n in sizes)
+
     def probe(ci, sizes, key) -> bool:
         """Before a failed candidate's cross points decide its child: try to certify the smallest
-        candidates its chain could still pass with, each by one line (along an axis through the
+        candidates its chain could still pass with (up to MAX_PROBES of them, the smallest first, and
+        only those within the texel limit and the caps), each by one line (along an axis through the
         last failing point found along it, :meth:`.bounds.Certificates.hint`). True: the bound
         rose above ``key`` and the chain is filed again under it."""
         c = certs[ci]
@@ -267,6 +276,8 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
                 return True
             if nxt is None:  # every candidate it dominates is certified, and nothing else is left:
                 return False  # decided as the search without certificates would (caps, limits)
+            if not computable(nxt):  # above the texel limit or a cap: nothing is computed for it
+                return False
             trial = v.trial(combos[ci], nxt)
             # the axis whose last failing point would still err most with nxt's nodes, if its error
             # falls as h^2 (4x per doubling); h[0] >= 2 nodes, so h[0] - 1 >= 1 (no division by 0)
@@ -296,7 +307,7 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
         if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
             limited = True  # checked before anything is computed
             continue
-        if int(np.prod([2 * n - 1 for n in sizes])) * discrete > MAX_CHECK_TEXELS or any(n > MAX_NODES for n in sizes):
+        if not computable(sizes):
             continue
         certified = certs[ci].fails(sizes) if interp else None
         if certified is not None:  # fails at a point already checked: nothing to compute

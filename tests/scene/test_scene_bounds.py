@@ -88,3 +88,12 @@ def test_a_cross_point_reads_the_same_texels_in_every_covered_candidate():
                     vals = f(*np.meshgrid(ax0.nodes(), a1.nodes(), indexing="ij"))
                     got = lookup(vals, [ax0, a1], [mids0, np.full_like(mids0, y)], "linear")
                     assert np.abs(got - ref).max() > 1e-6
+
+
+def test_no_interpolated_axis_has_one_uncertifiable_candidate():
+    """A table with only discrete axes (``search`` still builds certificates for it): one empty
+    candidate, never certified, no cone beyond it (no crash on the empty product)."""
+    certs = Certificates(0, 65)
+    assert certs.points.shape == (1, 0)
+    assert certs.fails(()) is None
+    assert certs.cone_min(()) == (float("inf"), None)

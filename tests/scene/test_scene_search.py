@@ -161,3 +161,28 @@ def test_certificates_keep_the_plan_for_nearest_lookup_and_3d_tables(monkeypatch
             assert a.table.channels[ch].tobytes() == b.table.channels[ch].tobytes()
     assert with_certs.candidates_certified > 0 and without.candidates_certified == 0
     assert with_certs.texels_computed < without.texels_computed
+
+
+def test_probes_compute_nothing_above_the_texel_limit(monkeypatch):
+    """A plan that ends in the texel limit computes only candidates within it: the line probes
+    (which look ahead along a failed chain) must not tabulate a candidate above ``max_texels``.
+    The same plan without probes (MAX_PROBES = 0, the search before them) is the reference:
+    the same error, no more texels, no axis longer than a candidate within the limit has."""
+    import bsdf_tab.scene.search as search
+    from bsdf_tab.errors import TexelLimitError
+
+    def run(probes):
+        counted = []
+        real = bsdf_tab.api.tabulate
+        monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
+        monkeypatch.setattr(search, "MAX_PROBES", probes)
+        with pytest.raises(TexelLimitError):
+            plan_scene(GOLD, 3e-4, max_texels=200, workers=1)
+        texels = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
+        longest = max(len(v) for s in counted for v in s["axes"].values())
+        return texels, longest
+
+    with_probes, without = run(search.MAX_PROBES), run(0)
+    assert with_probes[0] <= without[0]
+    # a candidate within 200 texels has at most 100 nodes per axis (2 x 100), refined 2n - 1
+    assert with_probes[1] <= 2 * 100 - 1 and with_probes[1] <= without[1]
