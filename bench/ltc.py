@@ -216,8 +216,13 @@ def judge_report(dj: dict, shape, ti, mu, alpha, worst: int = 5) -> dict:
         q, m, a, exact, err = dj["sample"]
         cub, cub_err, _ = exact_quads(q, m, a, tol=1e-8)
         gap = np.abs(exact - cub)
+        ratio = gap / (err + cub_err + 1e-9)
+        k = int(np.argmax(ratio))
         out["exact_vs_cubature"] = {"quads": int(len(q)), "max": float(gap.max()), "mean": float(gap.mean()),
-                                    "max_over_estimate": float(np.max(gap / (err + cub_err + 1e-9)))}
+                                    "max_over_estimate": float(ratio[k]),
+                                    "worst": {"mu": float(m[k]), "alpha": float(a[k]), "exact": float(exact[k]),
+                                              "estimate": float(err[k]), "cubature": float(cub[k]),
+                                              "cubature_estimate": float(cub_err[k]), "quad": q[k].tolist()}}
     return out
 
 
