@@ -26,9 +26,9 @@ rejected while a vertex is at or below z = 0.01), with a standard error small en
   The texel's standard error is reported with its Delta.
 
 The exact integrals are :func:`exact_with_error` (the package's Warp rules, the finest where the
-others disagree, with a per-quad error estimate); a shift x of the exact value moves d by at most
-2 |x|, so ``bias`` = 2 x the texel's mean error estimate bounds the exact integrals' effect on
-Delta. The quads are drawn by a vectorized generator of the same distribution as
+others disagree, with a per-quad error estimate x); a shift of the exact value within x moves d by
+at most min(2 x, |est_o - est_s| + |d|) (:func:`shift_bound`), so ``bias``, the texel's mean of
+that, bounds the exact integrals' effect on Delta. The quads are drawn by a vectorized generator of the same distribution as
 ``random_quads`` (its own stream: the same seed does not give the same quads as the 16-quad judge).
 """
 
@@ -41,7 +41,7 @@ import numpy as np
 from bsdf_tab.ltc import polygon_integral
 from bsdf_tab.ltc.exact import FINE_RULE, RULE, quad_integrals
 
-__all__ = ["decide", "mixture_quads", "paired_judge"]
+__all__ = ["decide", "exact_with_error", "mixture_quads", "paired_errors", "paired_judge", "shift_bound"]
 
 
 def mixture_quads(mu: np.ndarray, n: int, rng: np.random.Generator, near: bool) -> np.ndarray:
@@ -138,20 +138,32 @@ def exact_with_error(quads, mu, alpha, dist="ggx", shadowing="correlated", devic
     return exact, np.maximum(err, floor)
 
 
+def shift_bound(est0, est1, exact, err):
+    """The largest change of d = |est0 - exact| - |est1 - exact| when ``exact`` moves by at most ``err``.
+
+    Each term moves by at most the shift, so by at most 2 err; and d always lies in
+    [-|est0 - est1|, |est0 - est1|] (triangle inequality), so it moves by at most |est0 - est1| + |d|.
+    """
+    d = np.abs(est0 - exact) - np.abs(est1 - exact)
+    return np.minimum(2.0 * err, np.abs(est0 - est1) + np.abs(d))
+
+
 def paired_errors(quads, mu, alpha, tables, dist="ggx", shadowing="correlated", device="cpu"):
     """Per quad (N, 4, 3) at texels (mu, alpha) (N,): the absolute shading errors of each table and the
-    exact integral's error estimate.
+    bound on the exact integral's effect on the first two's difference.
 
     ``tables``: a list of (minv (N, 3, 3), amplitude (N,)); the estimate is amplitude x the
-    horizon-clipped polygon integral over Minv P. Returns (errors (len(tables), N), exact error (N,)).
+    horizon-clipped polygon integral over Minv P. Returns (errors (len(tables), N), bound (N,)):
+    :func:`shift_bound` with the exact integral's error estimate.
     """
     exact, err = exact_with_error(quads, mu, alpha, dist, shadowing, device)
-    errs = np.stack([np.abs(amp * polygon_integral(quads, minv) - exact) for minv, amp in tables])
-    return errs, err
+    est = [amp * polygon_integral(quads, minv) for minv, amp in tables]
+    errs = np.stack([np.abs(e - exact) for e in est])
+    return errs, shift_bound(est[0], est[1], exact, err)
 
 
 class _Texels:
-    """Running sums per texel and stratum of d = |e_0| - |e_1|, d^2, |e_k| and the exact gap."""
+    """Running sums per texel and stratum of d = |e_0| - |e_1|, d^2, |e_k| and the exact integrals' bound on d."""
 
     def __init__(self, T: int, k: int):
         self.n = np.zeros((T, 2))
@@ -176,7 +188,7 @@ class _Texels:
         delta = mean.mean(axis=1)
         se = 0.5 * np.sqrt(var[:, 0] / n[:, 0] + var[:, 1] / n[:, 1])
         err = (self.se_k / n[None]).mean(axis=2)
-        bias = 2.0 * (self.gap / n).mean(axis=1)
+        bias = (self.gap / n).mean(axis=1)
         return delta, se, err, bias, var
 
 
@@ -200,8 +212,8 @@ def paired_judge(mu, alpha, tables, seed: int, se_target: float = 2e-4, margin: 
     proportion to each stratum's standard deviation).
     The quads are drawn on this thread in texel order; their integrals run on ``workers`` threads.
     Returns a dict of per-texel arrays: ``delta`` (E |e_0| - E |e_1|, the stratified paired mean),
-    ``se`` (its standard error), ``bias`` (2 x the mean error estimate of the exact integrals: a
-    shift x of the exact value moves |e_0| - |e_1| by at most 2 |x|), ``mean_err`` (k, T) (each
+    ``se`` (its standard error), ``bias`` (the mean of :func:`shift_bound`: the exact integrals'
+    largest effect on delta within their error estimates), ``mean_err`` (k, T) (each
     table's mean absolute error), ``quads`` (per texel), ``rounds``, and with ``sample_every`` > 0
     ``sample`` = (quads, mu, alpha, exact, error) of every sample_every-th quad (for a check of the
     exact integrals by an independent method).

@@ -103,3 +103,18 @@ def test_decide_counts():
     assert r["better"] == 0.25 and r["better_surely"] == 0.25
     assert r["worse_by_margin"] == 2 and r["worse_by_margin_surely"] == 1 and r["worse_by_margin_possibly"] == 2
     assert r["worst_texel"] == 2 and r["quads_total"] == 512
+
+
+def test_shift_bound_covers_every_shift():
+    # brute force: move the exact value over [-err, err] and take the largest change of d
+    from bench.ltc_judge import shift_bound
+
+    rng = np.random.default_rng(9)
+    a, b, x = rng.normal(size=(3, 400)) * 1e-2
+    err = np.abs(rng.normal(size=400)) * 1e-2
+    bound = shift_bound(a, b, x, err)
+    s = np.linspace(-1.0, 1.0, 2001)[:, None] * err
+    d = np.abs(a - x - s) - np.abs(b - x - s)
+    worst = np.max(np.abs(d - (np.abs(a - x) - np.abs(b - x))), axis=0)
+    assert (worst <= bound + 1e-15).all() and np.mean(bound < 2.0 * err) > 0.3
+    assert (shift_bound(a, a, x, err) == 0).all()
