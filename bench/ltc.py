@@ -20,8 +20,16 @@ Run: ``python bench/ltc.py [--quick] [--quads 4] [--workers N]``.
    and, as a diagnosis, our lobe with the amplitude E. Per texel: the mean absolute error over
    its quads; summarized as max, p99 and mean.
 
-Prints a table, writes ``bench/out/ltc.json`` and the heatmaps ``docs/img/ltc.png``. Skips
-(exit 0) when the anchors are absent.
+5. The decisive judge (``bench/ltc_judge.py``, ``--judge-seeds``: the first seed is the reported
+   one, the others (default 2016, the tuning judge) are reported too): per texel, the expected
+   difference of the two tables' absolute shading errors over the random-quad distribution of 4.,
+   paired, stratified and sequential, to a standard error of ``--se-target`` (2e-4) wherever the
+   texel is within 6 standard errors of the 1e-3 margin; the criteria of issue 16 counted with
+   the standard error and the exact integrals' bound; its exact integrals checked against the
+   cubature of 4. on every 1024th quad.
+
+Prints a table, writes ``bench/out/ltc.json``, ``bench/out/ltc_judge_<seed>.npz`` (the decisive
+judges per texel) and the heatmaps ``docs/img/ltc.png``. Skips (exit 0) when the anchors are absent.
 """
 
 from __future__ import annotations
