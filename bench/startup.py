@@ -211,6 +211,15 @@ def launch(*a, **k):
     return r
 warp.launch = launch
 import bsdf_tab.api as api
+import bsdf_tab.integrate as integrate
+evals, group_evals = [0], []
+real_method = integrate.METHODS["adaptive"]
+def counted(*a, **k):  # the integrand evaluations of every texel (the integrator's own count)
+    v, e, c = real_method(*a, **dict(k, return_cost=True))
+    with lock:
+        evals[0] += int(c.sum())
+    return v, e
+integrate.METHODS["adaptive"] = counted
 real_tab, tab = api.tabulate, [0.0]
 def tabulate(spec, **kw):
     s = time.perf_counter(); r = real_tab(spec, **kw)
@@ -226,7 +235,10 @@ groups_cpu = []
 if hasattr(plan_module, "_plan_table"):
     real_plan_table = plan_module._plan_table
     def plan_table(*a, **k):
-        c = time.process_time(); r = real_plan_table(*a, **k); groups_cpu.append(time.process_time() - c)
+        c, e = time.process_time(), evals[0]
+        r = real_plan_table(*a, **k)
+        groups_cpu.append(time.process_time() - c)
+        group_evals.append(evals[0] - e)
         return r
     plan_module._plan_table = plan_table
 scene = load_scene_file(sys.argv[2])
@@ -244,36 +256,51 @@ out["module_load_total"] = sum(loads)
 out["tabulate_calls"] = plan.tabulate_calls
 out["texels_computed"] = plan.texels_computed
 out["groups_cpu"] = groups_cpu
+out["evaluations"] = evals[0]
+out["groups_evaluations"] = group_evals
+out["candidates_certified"] = getattr(plan, "candidates_certified", 0)
+out["line_probes"] = getattr(plan, "line_probes", 0)
 out["in_process_total"] = time.perf_counter() - t_start
 out["process_cpu"] = time.process_time()
 print(json.dumps(out))
 """
 
 
-def breakdown(mode: str, repeats: int, env: dict, root: Path = REPO_ROOT) -> dict:
-    """Where the plan's time goes, from inside one process (medians of ``repeats`` runs):
-    interpreter start (``python -c pass``), the imports (NumPy, Warp, the rest of what ``plan``
-    imports, with the time of garbage collections during each), Warp's init, the kernel-module
-    loads, the planner (its tabulations' wall time, the kernel launches summed over threads),
-    the JSON output. The groups are planned one after the other here (``GROUP_THREADS = 1``) so
-    that the parts add up; the ``plan`` command above plans them on threads. ``mode``: ``paused`` imports as ``bsdf-tab`` does (collector paused),
-    ``plain`` with the collector running."""
-    runs = []
-    starts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
-        starts.append(time.perf_counter() - t0)
-        proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(root / "examples" / "scene.json"),
-                               "1e-3"], cwd=root,
-                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        if proc.returncode != 0:
-            raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
-        runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
-    out = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k != "groups_cpu"}
-    out["groups_cpu"] = [statistics.median(g) for g in zip(*(r["groups_cpu"] for r in runs))]
-    out["interpreter_start"] = statistics.median(starts)
+def _breakdown_run(mode: str, env: dict, root: Path) -> dict:
+    """One breakdown run of ``root``'s plan (see :func:`breakdown`), with the interpreter start."""
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
+    start = time.perf_counter() - t0
+    proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CHILD, mode, str(root / "examples" / "scene.json"),
+                           "1e-3"], cwd=root,
+                          env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"breakdown child failed: {proc.stderr[-2000:]}")
+    return dict(json.loads(proc.stdout.strip().splitlines()[-1]), interpreter_start=start)
+
+
+def _medians(runs: list[dict]) -> dict:
+    lists = ("groups_cpu", "groups_evaluations")
+    out = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in lists}
+    for k in lists:
+        out[k] = [statistics.median(g) for g in zip(*(r[k] for r in runs))]
     return out
+
+
+def breakdown(mode: str, repeats: int, roots: list[Path]) -> dict:
+    """Where the plan's time goes, from inside one process (medians of ``repeats`` runs per
+    checkout, the checkouts interleaved): interpreter start (``python -c pass``), the imports
+    (NumPy, Warp, the rest of what ``plan`` imports, with the time of garbage collections during
+    each), Warp's init, the kernel-module loads, the planner (its tabulations' wall time, the
+    kernel launches summed over threads, the integrand evaluations), the JSON output. The groups
+    are planned one after the other here (``GROUP_THREADS = 1``) so that the parts add up; the
+    ``plan`` command above plans them on threads. ``mode``: ``paused`` imports as ``bsdf-tab``
+    does (collector paused), ``plain`` with the collector running."""
+    runs: dict[Path, list[dict]] = {root: [] for root in roots}
+    for _ in range(repeats):
+        for root in roots:
+            runs[root].append(_breakdown_run(mode, _environment("env", Path("."), root), root))
+    return {str(root): _medians(r) for root, r in runs.items()}
 
 
 def _print_breakdown(b: dict) -> None:
@@ -295,13 +322,17 @@ def _print_breakdown(b: dict) -> None:
         ("JSON of the plan", b["json"]),
     ]
     print(f"where `plan examples/scene.json --tol 1e-3` spends its time (medians; {b['tabulate_calls']:.0f} "
-          f"tabulations, {b['texels_computed']:.0f} texels, {b['launches']:.0f} launches; imports {imports:.2f} s):")
+          f"tabulations, {b['texels_computed']:.0f} texels, {b['evaluations'] / 1e6:.2f} M integrand evaluations, "
+          f"{b['launches']:.0f} launches, {b['candidates_certified']:.0f} candidates certified, "
+          f"{b['line_probes']:.0f} line probes; imports {imports:.2f} s):")
     for name, value in rows:
         print(f"  {name:<62} {value:7.3f} s")
     print(f"  {'plan CPU (all threads) / first module load':<62} {b['plan_cpu']:7.3f} s / {b['module_load_first']:.3f} s")
     if b.get("groups_cpu"):
         g = b["groups_cpu"]
         print(f"  {'CPU of each group (table), in order':<62} " + " ".join(f"{x:.2f}" for x in g) + " s")
+        print(f"  {'integrand evaluations of each group, in order':<62} "
+              + " ".join(f"{x / 1e6:.2f}" for x in b["groups_evaluations"]) + " M")
         print(f"  {'  on 2 free cores, groups on threads: at least max(largest, sum / 2)':<62} "
               f"{max(max(g), sum(g) / 2):7.3f} s")
 
@@ -330,10 +361,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         return 2
     load0 = os.getloadavg()
     rows = measure(names, modes, args.repeats, roots)
-    parts = {}
-    if args.breakdown != "none":
-        for root in roots:
-            parts[str(root)] = breakdown(args.breakdown, args.repeats, _environment("env", Path("."), root), root)
+    parts = breakdown(args.breakdown, args.repeats, roots) if args.breakdown != "none" else {}
     print(f"load average at start: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f} ({os.cpu_count()} cores), "
           f"at end: {os.getloadavg()[0]:.2f}")
     print(f"{'checkout':<28} {'command':<14} {'bytecode':<8} {'wall s (median)':>16} {'cpu s':>8}  walls")

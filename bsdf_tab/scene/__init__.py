@@ -8,7 +8,8 @@
 
 Modules: :mod:`.parse` (scene files, validation through :mod:`bsdf_tab.spec`), :mod:`.plan`
 (the plan types and ``plan_scene``), :mod:`.search` (the search for the smallest table and its
-checks), :mod:`.texels` (every texel of a planning run computed once), :mod:`.lookup` (how a
+checks), :mod:`.bounds` (failure certificates: candidates known to fail from points already
+checked), :mod:`.texels` (every texel of a planning run computed once), :mod:`.lookup` (how a
 renderer reads a planned table),
 :mod:`.manifest` (``manifest.json`` and the bake). The command line (``bsdf-tab plan``,
 ``bsdf-tab bake SCENE``) lives in :mod:`bsdf_tab.cli.plan`, ``POST /scenes`` in the service.

@@ -142,6 +142,8 @@ class ScenePlan:
     tabulate_calls: int = 0  # tabulations the planning ran (candidates, checks, comparisons)
     texels_computed: int = 0  # texels those tabulations integrated (each texel once)
     texels_requested: int = 0  # texels the checks read (repeats counted): what reuse saved
+    candidates_certified: int = 0  # candidates failed by a point already checked (.bounds): no texel computed
+    line_probes: int = 0  # lines checked only to certify candidates (.search)
 
     @property
     def bytes(self) -> int:
@@ -275,6 +277,7 @@ def _plan_table(plan: TablePlan, spacings: list[str], lookup_tol: float, interpo
     from ..api import table_meta  # at call time: the api loads Warp
 
     trial, err, verifier = search(plan, spacings, lookup_tol, interpolation, store, max_texels, log)
+    store.certified, store.probes = verifier.certified, verifier.probes
     plan.axes = trial
     plan.max_error = err
     channels = {c: np.ascontiguousarray(v) for c, v in verifier.values([a.nodes() for a in trial]).items()}
@@ -386,6 +389,7 @@ def plan_scene(
             manifest[m["name"]] = material_entry(m, tp, rname)
     return ScenePlan(lookup_tol, interpolation, [tp for tp, _, _ in planned], manifest,
                      tabulate_calls=sum(s.calls for s in stores), texels_computed=sum(s.texels for s in stores),
-                     texels_requested=sum(s.requested for s in stores))
+                     texels_requested=sum(s.requested for s in stores),
+                     candidates_certified=sum(s.certified for s in stores), line_probes=sum(s.probes for s in stores))
 
 

@@ -16,25 +16,38 @@ What it computes is kept small without changing what it decides (``docs/scenes.m
   target the candidate fails whatever its cell centres hold, so the centres are computed only
   for a candidate that may pass;
 - a candidate reached by doubling is first checked on the lines through its parent's worst
-  points (a few texels). A point above the target there fails it for sure; which axis its
-  child doubles is then decided only when that child could be the next candidate verified
-  (its smaller possible size comes up in the best-first order). A candidate of a spacing that
-  loses is so never refined at full cost beyond what the order needs.
+  points, and on each line first at the few midpoints next to that point (``WINDOW``). A point
+  above the target there fails it for sure;
+- a point above the target fails every candidate that looks it up from the same two texels
+  (a *certificate*, :mod:`.bounds`): a candidate certified to fail is failed without a texel
+  computed;
+- which axis a failed candidate's child doubles (its cross points, which cost texels) is
+  decided only when the best-first order reaches the smallest candidate its chain can still
+  pass with: the smallest one not certified to fail among those with at least its node counts
+  (:meth:`.bounds.Certificates.cone_bound`). Before deciding, the search tries to certify that
+  candidate with up to ``MAX_PROBES`` lines, each on the then smallest uncertified one within
+  the limits (``probe``: along an axis, through the last failing point found along it); when the bound so rises past the others, the chain waits again. A spacing combination
+  that loses is so dropped after a few lines instead of its last, largest, cross checks.
 
-The candidates verified, their order and the winner are those of verifying every candidate on
-its full refined grid; the winner's reported error is computed on that full grid.
+The winner and its reported error (computed on its full refined grid) are those of verifying
+every candidate on its full refined grid in the best-first order: a certificate only fails
+candidates that fail, and a chain is put off only while some other pending candidate is
+smaller than any it can pass with. (The progress lines list fewer candidates: those of chains
+never resumed are not verified.)
 """
 
 from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from typing import Callable
 
 import numpy as np
 
 from ..errors import SpecError, TexelLimitError
 from ..spec import channel_names
+from .bounds import CERT_MARGIN, Certificates, rung
 from .lookup import AxisPlan, lookup, texels_read
 
 __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine", "search"]
@@ -42,6 +55,8 @@ __all__ = ["MAX_CHECK_TEXELS", "MAX_NODES", "PLAN_MARGIN", "Verifier", "combine"
 PLAN_MARGIN = 0.8  # plan to 0.8 lookup_tol at the midpoints: headroom for points between them
 MAX_NODES = 1025
 MAX_CHECK_TEXELS = 300_000
+WINDOW = 1  # a line check looks first at the midpoints next to its point (within 1 refined node)
+MAX_PROBES = 8  # line probes per decision of a failed candidate's child (.bounds)
 
 
 def combine(kind: str, diffs: dict, errs: dict) -> np.ndarray:
@@ -60,6 +75,8 @@ class Verifier:
         self.base = {k: v for k, v in tp.spec().items() if k != "axes"}
         self.interp = [i for i, a in enumerate(tp.axes) if a.mode == "interp"]
         self.chans = list(channel_names(tp.kind))
+        self.probes = 0  # lines checked only to certify candidates (search's probe)
+        self.certified = 0  # candidates failed by a certificate, without a texel computed
 
     def trial(self, combo, sizes) -> list[AxisPlan]:
         """The axes of a candidate (spacings ``combo``, node counts ``sizes`` of the interp axes)."""
@@ -96,21 +113,25 @@ class Verifier:
             total = np.maximum(total, combine(self.tp.kind, diffs, errs))
         return total
 
-    def cross(self, trial: list[AxisPlan]):
+    def cross(self, trial: list[AxisPlan], certs: Certificates | None = None, target: float = 0.0):
         """(per interp axis: the max error at the points that are midpoints along it only,
-        and that point's coordinates)."""
+        and that point's coordinates). ``certs``: record the failing points (above ``target``)."""
         coarse = [a.nodes() for a in trial]
         fine = self.fine(trial)
         crosses = [[fine[j] if j == i else c for j, c in enumerate(coarse)] for i in self.interp]
         self.prefetch([coarse] + crosses)
         table = self.values(coarse)
         per_axis, worst = [], []
-        for i, lists in zip(self.interp, crosses):
+        discrete = tuple(j for j in range(len(trial)) if j not in self.interp)
+        sizes = tuple(trial[j].size for j in self.interp)
+        for pos, (i, lists) in enumerate(zip(self.interp, crosses)):
             err = self.errors(trial, table, lists)
             sub = err[(slice(None),) * i + (slice(1, None, 2),)]
             k = np.unravel_index(int(np.argmax(sub)), sub.shape)
             per_axis.append(float(sub[k]))
             worst.append([float(lists[j][2 * k[j] + 1 if j == i else k[j]]) for j in range(len(lists))])
+            if certs is not None:  # the worst over the discrete axes (the same in every candidate)
+                certs.add_cross(pos, sizes, sub.max(axis=discrete) if discrete else sub, target, worst[-1])
         return per_axis, worst
 
     def partial(self, trial: list[AxisPlan], reads: list[np.ndarray]) -> dict[str, np.ndarray]:
@@ -125,28 +146,60 @@ class Verifier:
             out[ch] = arr
         return out
 
-    def line(self, trial: list[AxisPlan], worst_parent: list[list[float]]):
+    def line(self, trial: list[AxisPlan], worst_parent: list[list[float]], certs: Certificates | None = None,
+             target: float = 0.0, positions: list[int] | None = None):
         """(lower bound of the error, per interp axis the worst point found) on the lines of the
         refined grid through ``worst_parent`` (per interp axis, a point whose coordinates on the
         other axes are nodes of ``trial``). Only the texels of those lines and the nodes their
-        lookup reads are computed."""
+        lookup reads are computed, and first only a few midpoints around each point
+        (``WINDOW``): a line is checked whole only where none of them is above ``target``.
+        ``positions``: only the lines along these interp axes (indices into the interp axes;
+        default all). ``certs``: record a failing point (:mod:`.bounds`)."""
+        positions = list(range(len(self.interp))) if positions is None else positions
         fine = self.fine(trial)
-        lines = [[fine[i] if j == i else np.array([x]) for j, x in enumerate(worst_parent[k])]
-                 for k, i in enumerate(self.interp)]
+        mids = {}
+        for k in positions:
+            f = fine[self.interp[k]]
+            c = int(np.argmin(np.abs(f - worst_parent[k][self.interp[k]])))
+            odd = [m for m in range(c - WINDOW, c + WINDOW + 1) if m % 2 == 1 and 0 < m < len(f) - 1]
+            mids[k] = f[odd]
+        found = self._lines(trial, worst_parent, positions, mids, certs, target)
+        rest = [k for k in positions if found[k][0] <= target + CERT_MARGIN]
+        if rest:
+            found.update(self._lines(trial, worst_parent, rest, {k: fine[self.interp[k]][1::2] for k in rest},
+                                     certs, target))
+        return max(found[k][0] for k in positions), [found[k][1] for k in positions]
+
+    def _lines(self, trial, points, positions, mids, certs, target) -> dict[int, tuple[float, list[float]]]:
+        """Per position k: (the max error, its point) at the midpoints ``mids[k]`` along interp axis
+        k through ``points[k]``, with only the texels those points and their lookup read."""
+        lines = [[mids[k] if j == self.interp[k] else np.array([x]) for j, x in enumerate(points[k])]
+                 for k in positions]
         both = self.interpolation == "nearest"
         reads = [[texels_read(a, x, self.interpolation, both) for a, x in zip(trial, lists)] for lists in lines]
         nodes = [a.nodes() for a in trial]
         self.prefetch(lines + [[n[r] for n, r in zip(nodes, rd)] for rd in reads])
-        bound, worst = 0.0, []
-        for k, (i, lists, rd) in enumerate(zip(self.interp, lines, reads)):
-            err = self.errors(trial, self.partial(trial, rd), lists)
-            sub = err[(slice(None),) * i + (slice(1, None, 2),)]
-            j = int(np.argmax(sub))
-            bound = max(bound, float(sub.ravel()[j]))
-            pt = list(worst_parent[k])
-            pt[i] = float(fine[i][2 * j + 1])
-            worst.append(pt)
-        return bound, worst
+        out = {}
+        for k, lists, rd in zip(positions, lines, reads):
+            i = self.interp[k]
+            err = self.errors(trial, self.partial(trial, rd), lists).ravel()
+            j = int(np.argmax(err))
+            pt = list(points[k])
+            pt[i] = float(mids[k][j])
+            out[k] = (float(err[j]), pt)
+            if certs is not None and err[j] > target + CERT_MARGIN:  # the line's rungs elsewhere
+                other = tuple(rung(int(np.argmin(np.abs(nodes[q] - pt[q]))), trial[q].size) for q in self.interp)
+                certs.add(k, trial[i].size, other, float(err[j]), pt)
+        return out
+
+    def on_nodes(self, trial: list[AxisPlan], point: list[float], skip: int) -> bool:
+        """Whether ``point`` is at nodes of ``trial`` on every interp axis but position ``skip``."""
+        for k, i in enumerate(self.interp):
+            if k != skip:
+                nodes = trial[i].nodes()
+                if np.min(np.abs(nodes - point[i])) > 1e-12 * max(1.0, float(np.max(np.abs(nodes)))):
+                    return False
+        return True
 
     def full(self, trial: list[AxisPlan]) -> float:
         """The candidate's error over its whole refined grid."""
@@ -185,42 +238,94 @@ def search(tp, spacings: list[str], lookup_tol: float, interpolation: str, store
             for ci in range(len(combos))]
     heapq.heapify(heap)
 
-    def say(ci, sizes, err: float, ok: bool, bound: bool = False) -> None:
+    def say(ci, sizes, err: float, ok: bool, bound: bool = False, certified: bool = False) -> None:
         if log is not None:
             shape = " x ".join(f"{a.name} {n} {sp}" for a, n, sp in zip(interp, sizes, combos[ci])) or "discrete axes only"
             log(f"{tp.file}: {shape}: lookup error {'>= ' if bound else ''}{err:.3g} "
-                f"({'ok' if ok else 'refine'}; target {target:.3g})")
+                f"({'ok' if ok else 'refine'}{', certified' if certified else ''}; target {target:.3g})")
 
     def grow(ci, sizes, per_axis, worst) -> None:
         k = int(np.argmax(per_axis))
         grown = tuple(2 * n - 1 if j == k else n for j, n in enumerate(sizes))
         heapq.heappush(heap, (int(np.prod(grown)), ci, grown, next(seq), "verify", worst))
 
+    def defer(ci, sizes) -> None:
+        """A failed candidate whose child is undecided: filed under the smallest candidate its
+        chain can still pass with (.bounds), decided when the best-first order gets there."""
+        heapq.heappush(heap, (certs[ci].cone_bound(sizes), ci, sizes, next(seq), "grow", None))
+
+    def computable(sizes) -> bool:
+        """Whether a candidate is within the texel limit and the check caps (nothing is computed
+        for one that is not, by the search or by a probe)."""
+        if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
+            return False
+        refined = int(np.prod([2 * n - 1 for n in sizes])) * discrete
+        return refined <= MAX_CHECK_TEXELS and all(n <= MAX_NODES for n in sizes)
+
+    def probe(ci, sizes, key) -> bool:
+        """Before a failed candidate's cross points decide its child: try to certify the smallest
+        candidates its chain could still pass with (up to MAX_PROBES of them, the smallest first, and
+        only those within the texel limit and the caps), each by one line (along an axis through the
+        last failing point found along it, :meth:`.bounds.Certificates.hint`). True: the bound
+        rose above ``key`` and the chain is filed again under it."""
+        c = certs[ci]
+        for _ in range(MAX_PROBES):
+            bound, nxt = c.cone_min(sizes)
+            if bound > key:
+                heapq.heappush(heap, (bound, ci, sizes, next(seq), "grow", None))
+                return True
+            if nxt is None:  # every candidate it dominates is certified, and nothing else is left:
+                return False  # decided as the search without certificates would (caps, limits)
+            if not computable(nxt):  # above the texel limit or a cap: nothing is computed for it
+                return False
+            trial = v.trial(combos[ci], nxt)
+            # the axis whose last failing point would still err most with nxt's nodes, if its error
+            # falls as h^2 (4x per doubling); h[0] >= 2 nodes, so h[0] - 1 >= 1 (no division by 0)
+            hints = [(h[1] / 4.0 ** math.log2((nxt[k] - 1) / (h[0] - 1)), k) for k, h in enumerate(c.hints)
+                     if h is not None and v.on_nodes(trial, h[2], k)]
+            if not hints:
+                return False
+            _, k = max(hints)
+            point = [None] * len(interp)
+            point[k] = c.hint(k)[2]
+            v.probes += 1
+            err, _ = v.line(trial, point, c, target, positions=[k])
+            if err <= target + CERT_MARGIN:
+                return False
+        return False
+
+    certs = [Certificates(len(interp), MAX_NODES) for _ in combos]
     best, limited = None, False
     while heap:
         texels, ci, sizes, _, what, info = heapq.heappop(heap)
         trial = v.trial(combos[ci], sizes)
         if what == "grow":  # a failed candidate whose child may now be next: decide which axis
-            grow(ci, sizes, *v.cross(trial))
+            if len(interp) > 1 and probe(ci, sizes, texels):
+                continue
+            grow(ci, sizes, *v.cross(trial, certs[ci], target))
             continue
         if max_texels is not None and int(np.prod(sizes)) * discrete > max_texels:
             limited = True  # checked before anything is computed
             continue
-        if int(np.prod([2 * n - 1 for n in sizes])) * discrete > MAX_CHECK_TEXELS or any(n > MAX_NODES for n in sizes):
+        if not computable(sizes):
+            continue
+        certified = certs[ci].fails(sizes) if interp else None
+        if certified is not None:  # fails at a point already checked: nothing to compute
+            v.certified += 1
+            say(ci, sizes, certified, False, True, True)
+            defer(ci, sizes)
             continue
         if info is not None:
-            bound, worst = v.line(trial, info)
+            bound, worst = v.line(trial, info, certs[ci], target)
             if bound > target:
                 say(ci, sizes, bound, False, True)
                 if len(sizes) == 1:
                     grow(ci, sizes, [bound], worst)
                 else:
-                    smallest = min(int(np.prod([2 * m - 1 if q == j else m for q, m in enumerate(sizes)]))
-                                   for j in range(len(sizes)))
-                    heapq.heappush(heap, (smallest, ci, sizes, next(seq), "grow", None))
+                    defer(ci, sizes)
                 continue
         if interp:
-            per_axis, worst = v.cross(trial)
+            per_axis, worst = v.cross(trial, certs[ci], target)
             if max(per_axis) > target:
                 say(ci, sizes, max(per_axis), False, True)
                 grow(ci, sizes, per_axis, worst)

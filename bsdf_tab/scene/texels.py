@@ -146,6 +146,8 @@ class TexelStore:
         self.calls = 0  # tabulations run
         self.texels = 0  # texels computed
         self.requested = 0  # texels asked for (over all grids, repeats counted)
+        self.certified = 0  # the search's counters (.search.Verifier), kept with the run's texels
+        self.probes = 0
 
     @staticmethod
     def _channels(base: dict) -> list[str]:

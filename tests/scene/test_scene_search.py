@@ -7,6 +7,8 @@ reuse: every candidate verified on its whole refined grid, each one tabulated di
 from __future__ import annotations
 
 import itertools
+import json
+import re
 
 import numpy as np
 import pytest
@@ -20,6 +22,25 @@ from bsdf_tab.scene.texels import cover
 GOLD = {"materials": [{"name": "gold", "type": "conductor", "eta": 0.18, "k": 3.42, "roughness": {"range": [0.3, 0.6]}}]}
 
 
+def _reference_errors(base: dict, axes: list[tuple[str, float, float]], combo, sizes):
+    """(the error at every point of the refined grid of the candidate, texels tabulated):
+    max |multilinear(even nodes) - value| + value's error, the refined grid (2n - 1 nodes per
+    axis) tabulated directly and read with SciPy in the texel coordinate."""
+    fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
+                 for (name, lo, hi), n, sp in zip(axes, sizes, combo)}
+    fine = tabulate(dict(base, axes=fine_axes))
+    value, error = fine.channels["E"], fine.channels["E_err"]
+    coarse = value[tuple(slice(None, None, 2) for _ in axes)]
+    coords = []
+    for (name, lo, hi), n, sp in zip(axes, sizes, combo):
+        g = np.sqrt if sp == "square" else (lambda x: x)
+        coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
+    interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
+    mesh = np.meshgrid(*coords, indexing="ij")
+    looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
+    return np.abs(looked - value) + error, value.size
+
+
 def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: float, spacings=("linear", "square")):
     """Best-first over (spacing per axis, doubling-ladder sizes): fewest texels first, ties the
     earlier spacing combination; verify on the refined grid (2n - 1 nodes per axis): error =
@@ -31,20 +52,8 @@ def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: flo
     while frontier:
         frontier.sort()
         _, ci, sizes = frontier.pop(0)
-        fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
-                     for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci])}
-        fine = tabulate(dict(base, axes=fine_axes))
-        texels += fine.channels["E"].size
-        value, error = fine.channels["E"], fine.channels["E_err"]
-        coarse = value[tuple(slice(None, None, 2) for _ in axes)]
-        coords = []
-        for (name, lo, hi), n, sp in zip(axes, sizes, combos[ci]):
-            g = np.sqrt if sp == "square" else (lambda x: x)
-            coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
-        interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
-        mesh = np.meshgrid(*coords, indexing="ij")
-        looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
-        err = np.abs(looked - value) + error
+        err, n = _reference_errors(base, axes, combos[ci], sizes)
+        texels += n
         if err.max() <= 0.8 * tol:
             return combos[ci], sizes, float(err.max()), texels
         per_axis = []
@@ -57,12 +66,13 @@ def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: flo
     raise AssertionError("no candidate passed")
 
 
-def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
-    tol = 4e-3
+@pytest.mark.parametrize("tol", [4e-3, 1.5e-3])
+def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch, tol):
     counted = []
     real = bsdf_tab.api.tabulate
     monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
-    plan = plan_scene(GOLD, tol)
+    lines = []
+    plan = plan_scene(GOLD, tol, log=lines.append)
     monkeypatch.undo()
     (t,) = plan.tables
     base = dict(t.spec(), tolerance=t.integration_tol)
@@ -75,9 +85,17 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch):
     direct = tabulate(dict(base, axes={a.name: a.spec() for a in t.axes}))
     assert np.abs(t.table.channels["E"] - direct.channels["E"]).max() <= 2 * t.integration_tol
     # and the reuse saved work: fewer texels than verifying every candidate in full (the
-    # reference does not even count the fixed-size comparison, which the plan includes)
+    # reference does not even count the fixed-size comparison, which the plan includes). 0.30
+    # of them at both tolerances; 0.40 / 0.38 before the certificates and windowed lines
     computed = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
-    assert computed == plan.texels_computed and computed < 0.6 * ref_texels, (computed, ref_texels)
+    assert computed == plan.texels_computed and computed < 0.35 * ref_texels, (computed, ref_texels)
+    # every candidate failed by a certificate (no texel computed for it) does fail in full
+    certified = [re.search(r"mu (\d+) (\w+) x roughness (\d+) (\w+): lookup error >= ([\d.e+-]+)", line).groups()
+                 for line in lines if "certified" in line]
+    assert len(certified) == plan.candidates_certified > 0 and plan.line_probes > 0
+    for n_mu, sp_mu, n_r, sp_r, bound in certified:
+        err, _ = _reference_errors(base, [("mu", 0.0, 1.0), ("roughness", 0.3, 0.6)], (sp_mu, sp_r), (int(n_mu), int(n_r)))
+        assert err.max() > 0.8 * tol and err.max() >= float(bound) * (1 - 1e-3) - t.integration_tol, (n_mu, n_r, bound)
 
 
 def test_cover_is_exact():
@@ -117,3 +135,54 @@ def test_before_compute_sees_every_tabulation_and_can_stop_the_plan(monkeypatch)
         plan_scene(GOLD, 1e-3, before_compute=hook)
     # nothing was computed past the limit: the refused tabulation never ran
     assert sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted) <= 60
+
+
+NEAREST = {"lookup": {"interpolation": "nearest"},
+           "materials": [{"name": "p", "type": "schlick", "f0": 0.04, "alpha": {"range": [0.1, 0.3]}}]}
+GLASS_3D = {"materials": [{"name": "g", "type": "dielectric", "eta": {"range": [1.2, 1.6]}, "alpha": {"range": [0.1, 0.3]}}]}
+
+
+@pytest.mark.parametrize("scene, tol", [(NEAREST, 5e-2), (GLASS_3D, 2e-2)], ids=["nearest", "3-d"])
+def test_certificates_keep_the_plan_for_nearest_lookup_and_3d_tables(monkeypatch, scene, tol):
+    """The search with no certificate ever recorded is the search before them (the cone bound
+    is then the smallest child's size and no probe has a point to start from): the same plan,
+    bit for bit, with more texels. Nearest lookup (ties checked both ways) and three
+    interpolated axes are where the reference above does not reach."""
+    from bsdf_tab.io import json_default
+    from bsdf_tab.scene.bounds import Certificates
+
+    with_certs = plan_scene(scene, tol)
+    monkeypatch.setattr(Certificates, "add", lambda *args, **kwargs: None)
+    without = plan_scene(scene, tol)
+    dump = lambda p: json.dumps(p.to_dict(), default=json_default, sort_keys=True)  # noqa: E731
+    assert dump(with_certs) == dump(without)
+    for a, b in zip(with_certs.tables, without.tables):
+        for ch in a.table.channels:
+            assert a.table.channels[ch].tobytes() == b.table.channels[ch].tobytes()
+    assert with_certs.candidates_certified > 0 and without.candidates_certified == 0
+    assert with_certs.texels_computed < without.texels_computed
+
+
+def test_probes_compute_nothing_above_the_texel_limit(monkeypatch):
+    """A plan that ends in the texel limit computes only candidates within it: the line probes
+    (which look ahead along a failed chain) must not tabulate a candidate above ``max_texels``.
+    The same plan without probes (MAX_PROBES = 0, the search before them) is the reference:
+    the same error, no more texels, no axis longer than a candidate within the limit has."""
+    import bsdf_tab.scene.search as search
+    from bsdf_tab.errors import TexelLimitError
+
+    def run(probes):
+        counted = []
+        real = bsdf_tab.api.tabulate
+        monkeypatch.setattr(bsdf_tab.api, "tabulate", lambda spec, **kw: counted.append(spec) or real(spec, **kw))
+        monkeypatch.setattr(search, "MAX_PROBES", probes)
+        with pytest.raises(TexelLimitError):
+            plan_scene(GOLD, 3e-4, max_texels=200, workers=1)
+        texels = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
+        longest = max(len(v) for s in counted for v in s["axes"].values())
+        return texels, longest
+
+    with_probes, without = run(search.MAX_PROBES), run(0)
+    assert with_probes[0] <= without[0]
+    # a candidate within 200 texels has at most 100 nodes per axis (2 x 100), refined 2n - 1
+    assert with_probes[1] <= 2 * 100 - 1 and with_probes[1] <= without[1]
