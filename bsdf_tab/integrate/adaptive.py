@@ -91,7 +91,7 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
     MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, insert_sorted, integrand_phi,
     mass_bound, phi_of_c, tir_eta, transmission_breaks, vec24d, mode_id,
 )
-from .quadrature import WG7_D, WGK_D, XGK_D, check_first_stage, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
+from .quadrature import WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
@@ -557,7 +557,7 @@ def integrate_texels(
     """
     dev = resolve_device(device)
     check_workers(workers)
-    check_first_stage(inner_first, first_share, first_safety)
+    check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power)
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
     # were measured under smaller estimates), down to 1e-10 (float64 sums of ~1e5 terms) below
     err_floor = max(1e-10, min(1e-9, 0.01 * float(tol)))

@@ -170,10 +170,15 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
     return g * hl, out
 
 
-def check_first_stage(inner_first, first_share, first_safety) -> None:
-    """The two-stage rule's keywords, validated: ``inner_first`` 0 (off), 5 (I5) or 3 (I3),
-    ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1 only for measuring the
-    margin: the estimate is then smaller than |G7 - I| itself)."""
+def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power) -> None:
+    """The inner error estimates' keywords, validated: the two-stage rule's ``inner_first`` 0
+    (off), 5 (I5) or 3 (I3), ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1
+    only for measuring the margin: the estimate is then smaller than |G7 - I| itself); the decay
+    estimate's ``err_safety`` and ``err_power`` finite and > 0 (:func:`gk_error_decay` takes a
+    decay ratio of 0 to a factor 0, which is the formula's limit only for a positive power)."""
+    for name, value in (("err_safety", err_safety), ("err_power", err_power)):
+        if isinstance(value, bool) or not (math.isfinite(float(value)) and float(value) > 0.0):
+            raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
     if isinstance(inner_first, bool) or inner_first not in (0, 3, 5):
         raise ValueError(f"inner_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {inner_first!r}")
     if not (0.0 <= float(first_share) <= 1.0):

@@ -362,8 +362,10 @@ def test_first_stage_margin(texels, tol):
 
 
 @pytest.mark.parametrize("bad", [{"inner_first": 4}, {"inner_first": 7}, {"inner_first": True}, {"first_share": 1.5},
-                                 {"first_share": float("nan")}, {"first_safety": 0.0}, {"first_safety": float("inf")}])
-def test_first_stage_keywords_are_validated(bad):
-    # 4 or 7 used to mean I3 silently (the kernel's "else"), NaN shares and zero factors to run
+                                 {"first_share": float("nan")}, {"first_safety": 0.0}, {"first_safety": float("inf")},
+                                 {"err_power": 0.0}, {"err_power": -1.0}, {"err_safety": 0.0}, {"err_safety": float("nan")}])
+def test_estimate_keywords_are_validated(bad):
+    # 4 or 7 used to mean I3 silently (the kernel's "else"), NaN shares and zero factors to run;
+    # a power <= 0 made the pow-free branch of gk_error_decay report the floor for a zero ratio
     with pytest.raises(ValueError, match=next(iter(bad))):
         integrate_texels("reflect", [0.5], [0.3], tol=1e-3, **bad)
