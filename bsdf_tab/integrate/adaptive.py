@@ -104,7 +104,7 @@ _vec48d = wp.types.vector(length=48, dtype=wp.float64)
 
 _PI = wp.constant(wp.float64(math.pi))
 _HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
-FIRST_SAFETY = 4.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, round 4)
+FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 
 
 @wp.func

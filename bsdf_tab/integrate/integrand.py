@@ -447,7 +447,9 @@ def _t_gap(p: TexelParams, theta_i: wp.float64, theta: wp.float64, which: wp.int
 
 @wp.func
 def transmission_breaks(p: TexelParams, theta_i: wp.float64, cands: vec24d, ncand: wp.int32):
-    """Append theta_m where c_max or c_min crosses the transmission floor (at most 2 each)."""
+    """Append theta_m where c_max or c_min crosses the transmission floor (at most 2 each), and
+    where the floor itself switches from the horizon root c_t to c_TIR (a kink of the outer
+    integrand: c_t cos theta_m = mu, i.e. cos theta_m = mu / sqrt(1 - eta^2))."""
     n = ncand
     steps = int(64)
     for which in range(2):
@@ -477,4 +479,9 @@ def transmission_breaks(p: TexelParams, theta_i: wp.float64, cands: vec24d, ncan
                 found += 1
             ta = tb
             ga = gb
+    # eta < 1 here (dielectric mode only), so e > 0; mu < e keeps the cosine below 1
+    e = wp.sqrt(wp.max(wp.float64(1.0) - p.eta * p.eta, wp.float64(0.0)))
+    if p.mu < e and n < 24:
+        cands[n] = wp.acos(p.mu / e)
+        n += 1
     return cands, n

@@ -298,13 +298,13 @@ INNER_FIXED = [
     ("dielectric GGX corr eta<1", (_DIELECTRIC, 0, 1, 0, 0.0), 0.088469153142784362, 0.0047783195992802622,
      0.75936384228852971, 0.46358414632174377, 2.4496254876416844e-05),
 ]
-# documented limits: still under-reported at the inner level with first_safety 4 (the texel
+# documented limits: still under-reported at the inner level with first_safety 4 and 8 (the texel
 # stays honest: the outer K15 / G7 comparison sees the miss, measured, not proven)
 INNER_LIMITS = [
-    # 120x with the plain estimate, 30x with first_safety 4 (the review's example)
+    # 120x with the plain estimate, 30x with first_safety 4, 15x with 8 (the review's example)
     ("dielectric GGX corr eta<1", (_DIELECTRIC, 0, 1, 0, 0.0), 0.03043844495827952, 0.010415639288117227,
      0.56192275940216563, 0.015230819634039047, 0.00048996236115669855),
-    # 69x -> 17x
+    # 69x -> 17x (4) -> 8.6x (8)
     ("dielectric Beckmann sep eta>1", (_DIELECTRIC, 1, 0, 0, 0.0), 0.26927840536352821, 0.066820232340004726,
      2.3400476395048466, 0.11450921512244226, 0.058800391168301533),
 ]
@@ -355,8 +355,9 @@ def test_first_stage_margin(texels, tol):
     bound = {1e-2: 0.1, 1e-3: 0.1, 5e-7: 0.3}[tol]
     assert worst(adaptive.FIRST_SAFETY) <= bound
     if tol > 1e-4:
-        # the test's power: an estimate 10x smaller than the shipped one exceeds the bound
-        assert worst(0.1 * adaptive.FIRST_SAFETY) > bound
+        # the test's power: first_safety 0.4 (the fourth round's factor 4 scaled by 0.1; the
+        # shipped 8 scaled by 0.05) exceeds the bound
+        assert worst(0.05 * adaptive.FIRST_SAFETY) > bound
     else:
         assert worst(0.1) > bound
 
