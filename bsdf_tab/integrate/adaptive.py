@@ -19,7 +19,7 @@ i.m = mu / (2 cos theta_m) + (1 - eta^2) cos theta_m / (2 mu) (eta < 1, where th
 split at those points, each piece mapped by phi = a + (b - a)(3 t^2 - 2 t^3) (which smooths the
 square-root behaviour of Fresnel at the critical angle and of the horizons), and integrated by
 adaptive G7-K15 as a two-stage rule (issue 14, fourth round): the 7 Gauss nodes first, and G7
-is accepted with the error ``first_safety`` |G7 - I5| = 4 |G7 - I5| (I5 the interpolatory rule on
+is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise the
 8 Kronrod nodes are added and the interval is K15 with the estimate below (the 7 values reused,
 so a rejected first stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
@@ -58,13 +58,13 @@ of G7) by min(1, ``err_safety`` r^``err_power``) = min(1, r^3), r the decay rati
 Legendre coefficients of the 15-node interpolant
 (:func:`bsdf_tab.integrate.quadrature.decay_ratio`): where the coefficients fall fast, K15 is
 resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|; an accepted
-first stage reports 4 |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`), the degree-6
+first stage reports 8 |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`), the degree-6
 term of the 7 values' interpolant, not G7's error, blind to what 7 values do not resolve (one
-inner integral can under-report: 20 of 24000 random ones, 83 with the plain |G7 - I5|). Texel
+inner integral can under-report: 9 of 24000 random ones, 20 with 4 |G7 - I5|, 83 with the plain). Texel
 honesty rests on the outer level, measured, not proven: on 1634 reference texels
 (``bench/accuracy_honesty.py``, 1e-2 .. 1e-7) none reports less than its true error, worst
-heuristic ratio 0.46; the outer rule compares K15 with G7 over 15 inner results, so an inner miss
-perturbs the outer difference. The same estimate at the outer level, r^6, or the two-stage rule
+heuristic ratio 0.44 (with the factor 4, one at 1e-3: 1.32); the outer rule compares K15 with G7
+over 15 inner results, so an inner miss perturbs the outer difference. The same estimate at the outer level, r^6, or the two-stage rule
 there under-reported (docs/methods.md). Rule applications are capped per texel (``max_rules_outer``,
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
 reports its large estimate instead of a wrong small one.
