@@ -28,7 +28,7 @@ _HALF_INV_SQRT_PI = 0.28209479177387814
 # of the local variable x in [-1, 1]): rows 0-11 in a on [k / 4, (k + 1) / 4], x = 8 a - (2 k + 1);
 # rows 12-15 h = u P(x) in u = 1 / a^2 on [1/16, 1/9], [1/36, 1/16], [1/64, 1/36], [0, 1/64]
 # (a >= 3), x = u s - o with (s, o) from _IERFC_UMAP. Interpolation error below 3.7e-17
-# relative; the float64 evaluation within 2 ulp of h (tests/model/test_model_beckmann_lambda.py)
+# relative; the float64 evaluation within 3 ulp of h (tests/model/test_model_fastforms.py)
 _IERFC_ROWS = (
     (0.4550368529124874, -0.09493282898175362, 0.012736576200676274, -0.0013506527840829116,
      0.00012212069387040536, -9.788720538352886e-06, 7.12271464125672e-07, -4.780313864598331e-08,
