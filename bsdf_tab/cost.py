@@ -97,9 +97,11 @@ KIND_OPTION_HOST_SCALE = {"sheen_albedo": {"sheen_shadowing": {"exact": 5.0}},
 #: Kinds that average over mu (one integration per node of the mu-average's panels).
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
-#: Core-seconds of one adaptive texel at tolerance 1e-3, per integrand family (measured after
-#: issue 14's fourth round, the calibration's texels: 103 / 121 / 206 us; 190 / 240 / 390 before).
-ADAPTIVE_BASE = {"reflect": 1.05e-4, "dfg": 1.25e-4, "dielectric": 2.1e-4}
+#: Core-seconds of one adaptive texel at tolerance 1e-3, per integrand family (after issue 14's
+#: fifth round, the calibration sweep on the idle machine: measured / predicted 0.61-0.89 reflect,
+#: 0.57-0.89 dfg, 0.38-0.56 dielectric with the fourth round's 105 / 125 / 210 us, so x0.75 /
+#: x0.75 / x0.6; 190 / 240 / 390 us before the fourth round).
+ADAPTIVE_BASE = {"reflect": 7.9e-5, "dfg": 9.4e-5, "dielectric": 1.26e-4}
 #: Adaptive cost ~ (1e-3 / tolerance) ** ADAPTIVE_EXPONENT (measured: x9.6 / x12.9 / x10.0 over
 #: 1e-3 .. 1e-11 for reflect / dfg / dielectric; x5.3 before issue 14's fourth round).
 ADAPTIVE_EXPONENT = 0.125
@@ -114,8 +116,10 @@ PER_NODE = {
     "grid": 4.5e-8,
     "vndf_gl": 8.0e-8,
 }
-#: Fixed-effort methods whose dielectric texels cost more per node (R and T sampled apart).
-DIELECTRIC_FACTOR = {"vndf_gl": 2.4}
+#: Fixed-effort methods whose dielectric texels cost differently per node (measured: 0.82-0.85x
+#: of 8e-8 for vndf_gl after issue 14's fifth round, one root for F and refraction; was 2.4x, which
+#: already predicted 2.3x too much at a643761 and 2.7x after the round).
+DIELECTRIC_FACTOR = {"vndf_gl": 0.85}
 #: Core-seconds of one fixed-effort texel besides its samples (launch, setup, guards).
 OVERHEAD = 3.0e-5
 #: Core-seconds of one ``bsdf`` point texel.
