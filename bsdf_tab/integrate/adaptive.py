@@ -86,11 +86,12 @@ import math
 import numpy as np
 import warp as wp
 
-from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
+from ..model.distribution import dcos_tan_of_v
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
     MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, insert_sorted, integrand_phi,
-    mass_bound, phi_of_c, tir_eta, transmission_breaks, vec24d, mode_id,
+    mass_bound, phi_of_c, tir_eta, mode_id,
 )
+from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
@@ -99,11 +100,9 @@ wp.set_module_options({"enable_backward": False})
 
 _vec6d = wp.types.vector(length=6, dtype=wp.float64)
 _vec16d = vec16d
-_vec24d = vec24d
-_vec48d = wp.types.vector(length=48, dtype=wp.float64)
 
 _PI = wp.constant(wp.float64(math.pi))
-_HALF_PI = wp.constant(wp.float64(0.5 * math.pi))
+INNER_CARRY = 4.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, round 6)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 
 
@@ -256,17 +255,17 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
 
 
 @wp.func
-def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
+def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v), x = (tol_in, max_rules_inner).
 
     v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`).
     Returns (K, error incl. the inner estimates, (inner rule applications, of which bisections))."""
-    tol_in = x[0]
-    max_rules = int(x[1])
+    tol_in = x.tol_in
+    max_rules = x.max_rules
     half = wp.float64(0.5)
     one = wp.float64(1.0)
-    ctr = half * (va + vb)
-    hl = half * (vb - va)
+    ctr = half * (wa + wb)
+    hl = half * (wb - wa)
     rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
@@ -280,19 +279,21 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
         if j >= 8:
             jj = j - 8
             sgn = -one
-        v = ctr + sgn * hl * XGK_D[jj]
+        v, dvdw = v_of_w(x, ctr + sgn * hl * XGK_D[jj])
         tm = dcos_tan_of_v(v, p.alpha, p.dist)
         cm = one / wp.sqrt(one + tm * tm)
         sm = tm * cm
         jac = wp.float64(2.0) * (one - v)
-        f, e, used, used_ref = _inner(p, cm, sm, tm, tol_in / jac, max_rules)
+        # the inner budget per unit v as before the map (its sum over the v range is tol_in)
+        f, e, used, used_ref = _inner(p, cm, sm, tm, tol_in / (jac * x.carry), max_rules)
+        jac = jac * dvdw
         rules += wp.vec2i(used, used_ref)
         f = f * jac
         f0[j] = f[0]
         f1[j] = f[1]
         rk += WGK_D[jj] * f
         rg += WG7_D[jj] * f
-        ei += WGK_D[jj] * jac * e
+        ei += WGK_D[jj] * jac * e * x.carry
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
@@ -304,6 +305,8 @@ def _gk_v(p: TexelParams, x: wp.vec2d, va: wp.float64, vb: wp.float64):
     if p.err_model == 2:
         r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
         est = gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power) + ei * hl
+    va, dva = v_of_w(x, wa)
+    vb, dvb = v_of_w(x, wb)
     bnd = mass_bound(p, va, vb)
     if bnd >= wp.float64(0.0):
         # the true value and K (positive weights, g >= 0) are both in [0, max(K, bnd)]
@@ -345,6 +348,8 @@ def texel_kernel(
     inner_first: wp.int32,
     first_share: wp.float64,
     first_safety: wp.float64,
+    outer_map: wp.int32,
+    inner_carry: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -370,103 +375,23 @@ def texel_kernel(
         max_piece = rough[2]
     p.first_share = first_share
     p.first_safety = first_safety
-    zero = wp.float64(0.0)
-    one = wp.float64(1.0)
-    mu = p.mu
-    # outer breakpoints in theta_m where the phi pieces change (module docstring)
-    theta_i = wp.acos(mu)
-    hp = _HALF_PI
-    th = _vec24d()
-    nt = int(0)
-    cands = _vec24d()
-    cands[0] = wp.float64(0.5) * (hp - theta_i)
-    cands[1] = hp - theta_i
-    cands[2] = wp.float64(0.5) * (hp + theta_i)
-    ncand = int(3)
-    if tir_eta(p) < one:
-        # the critical angle (dielectric mode, or reflection with a dielectric Fresnel)
-        theta_c = wp.acos(wp.sqrt(one - tir_eta(p) * tir_eta(p)))
-        cands[3] = wp.abs(theta_i - theta_c)
-        cands[4] = theta_i + theta_c
-        ncand = 5
-    if mode == MODE_DIELECTRIC and p.eta < one:
-        # where the transmitted set (i.m above its floor, see _inner) appears or fills the whole
-        # phi circle: no closed form, so locate sign changes on a grid and bisect
-        cands, ncand = transmission_breaks(p, theta_i, cands, ncand)
-    # fixed angles too: the v map packs theta_m >> alpha into the last ~alpha of [0, 1], where a
-    # single rule could otherwise step over the horizon structure without noticing it
-    for q in range(wp.min(n_fixed, 24 - ncand)):
-        cands[ncand] = wp.float64(q + 1) * _HALF_PI / wp.float64(n_fixed + 1)
-        ncand += 1
-    for q in range(ncand):
-        x = cands[q]
-        if x > zero and x < hp:
-            th = insert_sorted(th, nt, x)
-            nt += 1
-    v_end = one
-    if mode != MODE_DIELECTRIC:
-        # reflection only: no admissible micro-normal beyond theta_m = (pi/2 + theta_i) / 2
-        v_end = dcos_v_of_theta(wp.float64(0.5) * (hp + theta_i), p.alpha, p.dist)
-    # split the budget: inner_share for the inner phi integrals (summed through the outer weights,
-    # at most tol_in in total), the rest for the outer v quadrature
+    # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
+    # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
+    # most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * _PI
-    tol_in = inner_share * tol_total
-    # initial intervals: the pieces between the breakpoints, each cut into equal parts in
-    # theta_m no wider than max_dtheta (when > 0), none longer than max_piece in v; the
-    # splits stop short of the capacity so that every breakpoint (and v_end) is kept
-    th_end = hp
-    if mode != MODE_DIELECTRIC:
-        th_end = wp.float64(0.5) * (hp + theta_i)
-    ends = _vec48d()
-    ends[0] = zero
-    ne = int(1)
-    th_prev = zero
-    for q in range(nt + 1):
-        vb = v_end
-        tb = th_end
-        if q < nt:
-            tb = wp.min(th[q], th_end)
-            vb = wp.min(dcos_v_of_theta(th[q], p.alpha, p.dist), v_end)
-        room = 44 - (nt + 1 - q)
-        if max_dtheta > zero and tb > th_prev:
-            nth = int(wp.ceil((tb - th_prev) / max_dtheta))
-            for k in range(1, nth):
-                tk = th_prev + (tb - th_prev) * wp.float64(k) / wp.float64(nth)
-                vk = wp.min(dcos_v_of_theta(tk, p.alpha, p.dist), v_end)
-                while vk - ends[ne - 1] > max_piece and ne < room:
-                    ends[ne] = ends[ne - 1] + max_piece
-                    ne += 1
-                if vk > ends[ne - 1] and ne < room:
-                    ends[ne] = vk
-                    ne += 1
-        while vb - ends[ne - 1] > max_piece and ne < room:
-            ends[ne] = ends[ne - 1] + max_piece
-            ne += 1
-        if vb > ends[ne - 1] and vb <= v_end and ne < 47:
-            ends[ne] = vb
-            ne += 1
-        th_prev = wp.max(th_prev, tb)
-    ne -= 1
-    # the D tail: the longest run of last intervals whose mass bound fits in bound_share of the
-    # budget is not integrated (value 0, error the bound: both are in [0, bound])
-    skip = zero
-    if bound_share > zero:
-        run = zero
-        q = ne - 1
-        while q >= 0:
-            # the suffix from ends[q] as one piece, or the last suffix's bound plus this piece's
-            b = mass_bound(p, ends[q], ends[ne])
-            bp = mass_bound(p, ends[q], ends[q + 1])
-            if bp >= zero and (b < zero or run + bp < b):
-                b = run + bp
-            if b < zero or b > bound_share * tol_total:
-                break
-            run = b
-            q -= 1
-        skip = run
-        ne = q + 1
-        tol_in = inner_share * (tol_total - skip)
-    total, err, rules, rules_ref = _adaptive_outer(p, wp.vec2d(tol_in, wp.float64(max_rules_inner)), ends, ne,
+    ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share)
+    tol_in = inner_share * (tol_total - skip)
+
+    ox = OuterX()
+    ox.tol_in = tol_in
+    ox.max_rules = max_rules_inner
+    ox.omap = outer_map
+    ox.carry = inner_carry
+    ox.ends = ends
+    wends = vec48d()
+    for q in range(ne + 1):
+        wends[q] = wp.float64(q)
+    total, err, rules, rules_ref = _adaptive_outer(p, ox, wends, ne,
                                                    tol_total - skip, max_rules_outer, wp.vec2i(0, 0))
     err += wp.vec2d(skip, skip)
     value[i, 0] = total[0] / _PI
@@ -503,7 +428,7 @@ def integrate_texels(
     err_model: int = 1,
     max_rules_outer: int = 400,
     max_rules_inner: int = 200,
-    inner_share: float = 0.7,
+    inner_share: float = 0.85,
     max_piece: float = 0.25,
     n_fixed: int = 0,
     err_model_inner: int = 2,
@@ -517,6 +442,8 @@ def integrate_texels(
     inner_first: int = 5,
     first_share: float = 1.0,
     first_safety: float = FIRST_SAFETY,
+    outer_map: bool = True,
+    inner_carry: float = INNER_CARRY,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -586,7 +513,7 @@ def integrate_texels(
         float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
         float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
         wp.vec3d(*rough), err_floor,
-        float(bound_share), int(inner_first), float(first_share), float(first_safety), value, error, cost, detail,
+        float(bound_share), int(inner_first), float(first_share), float(first_safety), int(outer_map), float(inner_carry), value, error, cost, detail,
     ], dev)
 
     # interleave the texels so that expensive ones (grazing mu) spread over the workers

@@ -1,0 +1,160 @@
+"""The adaptive method's outer level before any rule: breakpoints, initial intervals, the map.
+
+The outer v integral (:mod:`bsdf_tab.integrate.adaptive`) starts from the theta_m where the
+inner phi pieces change: where a threshold on i.m enters or leaves the phi circle
+(theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, |theta_i -+ theta_c|, the transmission floor's
+crossings) and where two thresholds cross inside it (the transmission floor switching from
+the horizon root to c_TIR; the reflection horizon crossing the critical i.m, issue 14 round 6).
+Each piece between them is cut into equal parts in theta_m and in v (the floor), and the
+longest run of last intervals whose rigorous mass bound fits in ``bound_share`` of the budget
+is left out (:func:`bsdf_tab.integrate.integrand.mass_bound`).
+
+The outer rules then work in a piece coordinate w in [0, ne]: piece k = floor(w) of the initial
+ends, and t = w - k mapped by the smoothstep v = v_k + (v_k+1 - v_k)(3 t^2 - 2 t^3) (issue 14,
+round 6): at a breakpoint the outer integrand has a kink or a power (v - v_k)^(n + 1/2), which
+the map's t^2 makes smooth, so G7-K15 needs far fewer bisections there. Bisection in w never
+crosses a piece end.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..model.distribution import dcos_v_of_theta
+from .integrand import (
+    HALF_PI64, MODE_DIELECTRIC, TexelParams, insert_sorted, mass_bound, tir_eta, transmission_breaks, vec24d,
+)
+
+# no kernel of this module is differentiated: no adjoint code
+wp.set_module_options({"enable_backward": False})
+
+vec48d = wp.types.vector(length=48, dtype=wp.float64)
+
+
+@wp.struct
+class OuterX:
+    """The outer rule's parameters: the inner budget and its cap, the factor on the inner
+    estimates, the initial ends in v, and their map (1: smoothstep, 0: linear)."""
+
+    tol_in: wp.float64
+    max_rules: wp.int32
+    omap: wp.int32
+    carry: wp.float64
+    ends: vec48d
+
+
+@wp.func
+def v_of_w(x: OuterX, w: wp.float64):
+    """(v, dv/dw) at w in [0, ne]: piece k = floor(w) of ``x.ends``, t = w - k through the map."""
+    k = wp.min(int(wp.floor(w)), 46)
+    t = w - wp.float64(k)
+    va = x.ends[k]
+    dv = x.ends[k + 1] - va
+    if x.omap == 0:
+        return va + dv * t, dv
+    one = wp.float64(1.0)
+    return va + dv * t * t * (wp.float64(3.0) - wp.float64(2.0) * t), dv * wp.float64(6.0) * t * (one - t)
+
+
+@wp.func
+def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed: wp.int32,
+                 max_dtheta: wp.float64, max_piece: wp.float64, bound_share: wp.float64):
+    """(ends, ne, skip): the initial outer intervals [ends[q], ends[q + 1]], q < ne, in v, and the
+    mass bound of the D tail left out beyond ends[ne] (0 when nothing is left out)."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    # outer breakpoints in theta_m where the phi pieces change (module docstring)
+    theta_i = wp.acos(p.mu)
+    hp = HALF_PI64
+    th = vec24d()
+    nt = int(0)
+    cands = vec24d()
+    cands[0] = wp.float64(0.5) * (hp - theta_i)
+    cands[1] = hp - theta_i
+    cands[2] = wp.float64(0.5) * (hp + theta_i)
+    ncand = int(3)
+    if tir_eta(p) < one:
+        # the critical angle (dielectric mode, or reflection with a dielectric Fresnel)
+        theta_c = wp.acos(wp.sqrt(one - tir_eta(p) * tir_eta(p)))
+        cands[3] = wp.abs(theta_i - theta_c)
+        cands[4] = theta_i + theta_c
+        ncand = 5
+        # where the reflection horizon i.m = mu / (2 cos theta_m) crosses the critical i.m
+        # (the kink of F leaves the reflected support): cos theta_m = mu / (2 cos theta_c)
+        ch = p.mu / (wp.float64(2.0) * wp.sqrt(one - tir_eta(p) * tir_eta(p)))
+        if ch < one:
+            cands[5] = wp.acos(ch)
+            ncand = 6
+    if mode == MODE_DIELECTRIC and p.eta < one:
+        # where the transmitted set (i.m above its floor, see _inner) appears or fills the whole
+        # phi circle: no closed form, so locate sign changes on a grid and bisect
+        cands, ncand = transmission_breaks(p, theta_i, cands, ncand)
+    # fixed angles too: the v map packs theta_m >> alpha into the last ~alpha of [0, 1], where a
+    # single rule could otherwise step over the horizon structure without noticing it
+    for q in range(wp.min(n_fixed, 24 - ncand)):
+        cands[ncand] = wp.float64(q + 1) * HALF_PI64 / wp.float64(n_fixed + 1)
+        ncand += 1
+    for q in range(ncand):
+        x = cands[q]
+        if x > zero and x < hp:
+            th = insert_sorted(th, nt, x)
+            nt += 1
+    v_end = one
+    if mode != MODE_DIELECTRIC:
+        # reflection only: no admissible micro-normal beyond theta_m = (pi/2 + theta_i) / 2
+        v_end = dcos_v_of_theta(wp.float64(0.5) * (hp + theta_i), p.alpha, p.dist)
+    # initial intervals: the pieces between the breakpoints, each cut into equal parts in
+    # theta_m no wider than max_dtheta (when > 0), none longer than max_piece in v; the
+    # splits stop short of the capacity so that every breakpoint (and v_end) is kept
+    th_end = hp
+    if mode != MODE_DIELECTRIC:
+        th_end = wp.float64(0.5) * (hp + theta_i)
+    ends = vec48d()
+    ends[0] = zero
+    ne = int(1)
+    th_prev = zero
+    for q in range(nt + 1):
+        vb = v_end
+        tb = th_end
+        if q < nt:
+            tb = wp.min(th[q], th_end)
+            vb = wp.min(dcos_v_of_theta(th[q], p.alpha, p.dist), v_end)
+        room = 44 - (nt + 1 - q)
+        if max_dtheta > zero and tb > th_prev:
+            nth = int(wp.ceil((tb - th_prev) / max_dtheta))
+            for k in range(1, nth):
+                tk = th_prev + (tb - th_prev) * wp.float64(k) / wp.float64(nth)
+                vk = wp.min(dcos_v_of_theta(tk, p.alpha, p.dist), v_end)
+                while vk - ends[ne - 1] > max_piece and ne < room:
+                    ends[ne] = ends[ne - 1] + max_piece
+                    ne += 1
+                if vk > ends[ne - 1] and ne < room:
+                    ends[ne] = vk
+                    ne += 1
+        while vb - ends[ne - 1] > max_piece and ne < room:
+            ends[ne] = ends[ne - 1] + max_piece
+            ne += 1
+        if vb > ends[ne - 1] and vb <= v_end and ne < 47:
+            ends[ne] = vb
+            ne += 1
+        th_prev = wp.max(th_prev, tb)
+    ne -= 1
+    # the D tail: the longest run of last intervals whose mass bound fits in bound_share of the
+    # budget is not integrated (value 0, error the bound: both are in [0, bound])
+    skip = zero
+    if bound_share > zero:
+        run = zero
+        q = ne - 1
+        while q >= 0:
+            # the suffix from ends[q] as one piece, or the last suffix's bound plus this piece's
+            b = mass_bound(p, ends[q], ends[ne])
+            bp = mass_bound(p, ends[q], ends[q + 1])
+            if bp >= zero and (b < zero or run + bp < b):
+                b = run + bp
+            if b < zero or b > bound_share * tol_total:
+                break
+            run = b
+            q -= 1
+        skip = run
+        ne = q + 1
+    return ends, ne, skip
