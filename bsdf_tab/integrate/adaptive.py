@@ -436,7 +436,7 @@ def integrate_texels(
     err_power: float = 3.0,
     max_dtheta: float | None = None,
     rough_alpha: float | None = None,
-    rough_dtheta: float = math.pi / 4,
+    rough_dtheta: float = math.pi / 8,
     rough_piece: float = 0.5,
     bound_share: float | None = None,
     inner_first: int = 5,

@@ -200,9 +200,10 @@ def rough_texels():
 def test_rough_floor_is_honest_and_cheaper(rough_texels, tol):
     # also the heuristic estimates alone, without the D tail left out under its bound
     total_new, total_old = _honest_and_counted(rough_texels, tol, {"rough_alpha": math.inf}, {"bound_share": 0.0})
-    # measured on these 36 texels: 0.72 / 0.91 / 0.95 of the fine floor's evaluations (the
-    # fine floor costs the same, 1.0)
-    limit = {1e-2: 0.8, 1e-3: 0.95, 1e-4: 0.98}[tol]
+    # measured on these 36 texels: 0.84 / 0.84 / 0.86 of the fine floor's evaluations with the
+    # outer map and parts <= pi/8 (issue 14 round 6; 0.72 / 0.91 / 0.95 with pi/4 parts and no
+    # map, which the map made dishonest here); the fine floor costs the same, 1.0
+    limit = {1e-2: 0.88, 1e-3: 0.88, 1e-4: 0.9}[tol]
     assert total_new <= limit * total_old, (tol, total_new, total_old)
 
 
