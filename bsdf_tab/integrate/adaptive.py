@@ -23,17 +23,24 @@ is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the inte
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise the
 8 Kronrod nodes are added and the interval is K15 with the estimate below (the 7 values reused,
 so a rejected first stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
-theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, and the
-critical-angle crossings).
+theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, the
+critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integrate.outer`), and
+each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
+outer integrand's kinks and half-integer powers sit at the piece ends, where the map makes them
+smooth; -22% evaluations at 5e-7 on the 1634-texel harness).
 
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
-sum meets the budget: ``inner_share`` = 0.7 of the tolerance for the inner integrals, the rest
-for the outer one). The outer integral starts from the breakpoints above, each piece between
+sum meets the budget: ``inner_share`` = 0.85 of the tolerance for the inner integrals, the rest
+for the outer one). The inner estimates enter a texel's error at ``INNER_CARRY`` = 4 times
+their value, and each inner integral aims at its share / 4: single inner estimates can
+under-report (below), and with the map the outer level no longer bisects enough to absorb that
+(a texel at 1e-7 reported 0.79 of its true error with the factor 1). The outer integral starts from the breakpoints above, each piece between
 them cut into equal parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances
 >= 1e-5) and no longer than ``max_piece`` = 1/4 in v: the v map packs theta_m >> alpha into a
 sliver near v = 1, where a single rule could otherwise step over the horizon structure
 unnoticed. Rough texels (alpha >= ``rough_alpha`` = 0.3, tolerances >= 1e-4), whose tail is
-not packed, start from parts <= pi/4 and pieces <= 1/2 (issue 14, fourth round). ``n_fixed``
+not packed, start from parts <= pi/8 and pieces <= 1/2 (issue 14, fourth round; pi/4 until
+the sixth, which under-reported with the map). ``n_fixed``
 fixed angles theta_m = k pi/16 were the floor before issue 14's second round; docs/methods.md
 has the measurements behind every constant.
 
@@ -458,18 +465,21 @@ def integrate_texels(
         Target absolute error per texel and channel.
     inner_share, max_piece, n_fixed, max_dtheta : float, float, int, float
         The floor and the budget (benchmarks and experiments): the share of the tolerance given
-        to the inner phi integrals (0.7; 0.25 before issue 14's second round), the longest initial outer piece in v (0.25), the
+        to the inner phi integrals (0.85; 0.7 before issue 14's sixth round, 0.25 before its second), the longest initial outer piece in v (0.25), the
         number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
         breakpoints (0; 7 before issue 14's second round), and the widest initial outer piece in
         theta_m (None: pi/8 at tolerances >= 1e-5, pi/16 below; 0: no such cut); for alpha >=
-        ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4) ``rough_dtheta`` (pi/4), ``rough_piece`` (1/2). ``err_model_inner``: the inner level's error model
+        ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4) ``rough_dtheta`` (pi/8), ``rough_piece`` (1/2). ``err_model_inner``: the inner level's error model
         (-1: ``err_model``; 2, the default: |K15 - G7| times min(1, err_safety r^err_power),
         r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3). ``bound_share``: the
         share of the budget for the D tail left out under its mass bound (None: 0.25 at
         tolerances >= 1e-4, 0 below; 0: none left out, the bound still caps each outer rule's
         estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the
         inner first stage (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always, before issue 14's round 4);
-        ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (4): its factor.
+        ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (8): its factor.
+        ``outer_map`` (True): the outer rules through the smoothstep map of their initial piece
+        (False: linear, the method before issue 14's sixth round); ``inner_carry`` (4): the
+        factor on the inner estimates in the texel's error (the inner tolerance divided by it).
 
     Returns
     -------
@@ -485,6 +495,8 @@ def integrate_texels(
     dev = resolve_device(device)
     check_workers(workers)
     check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power)
+    if not (math.isfinite(inner_carry) and inner_carry > 0.0):
+        raise ValueError(f"inner_carry must be finite and > 0, got {inner_carry!r}")
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
     # were measured under smaller estimates), down to 1e-10 (float64 sums of ~1e5 terms) below
     err_floor = max(1e-10, min(1e-9, 0.01 * float(tol)))

@@ -88,3 +88,9 @@ def test_piece_map_is_monotone_and_exact_at_the_ends(omap):
     if omap:
         # the smoothstep's derivative vanishes at every piece end: a breakpoint's kink becomes smooth
         assert np.abs(d[[0, 100, 200]]).max() == 0.0
+
+
+@pytest.mark.parametrize("carry", [0.0, -1.0, math.nan, math.inf])
+def test_inner_carry_is_validated(carry):
+    with pytest.raises(ValueError, match="inner_carry"):
+        integrate_texels("reflect", [0.5], [0.2], tol=1e-3, inner_carry=carry)
