@@ -179,7 +179,7 @@ def test_service_warm_up_lets_a_request_in_between_kinds(tmp_path, monkeypatch):
 PLAN_UNUSED = ("bsdf_tab.integrate.grid", "bsdf_tab.integrate.montecarlo", "bsdf_tab.integrate.vndf_gl",
                "bsdf_tab.tables.bsdf", "bsdf_tab.tables.ltc", "bsdf_tab.tables.sheen", "bsdf_tab.tables.aniso",
                "bsdf_tab.ltc", "bsdf_tab.model.charlie", "bsdf_tab.model.ltc", "bsdf_tab.model.multiscatter",
-               "bsdf_tab.model.bsdf")
+               "bsdf_tab.model.bsdf", "tomllib")
 
 
 def test_plan_command_does_not_import_the_unused_methods_and_models(tmp_path):

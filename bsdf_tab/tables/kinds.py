@@ -3,7 +3,7 @@
 catalog (:data:`bsdf_tab.tables.CATALOG`, what the spec validates against) does not import those
 modules. Their functions are :class:`Deferred`: the kind's module is imported on the first call
 (``bsdf-tab plan``, which tabulates ``albedo``, ``dfg`` and ``dielectric`` only, never defines
-their kernels: ~20 ms of start-up). The constants the entries need live here too; the modules
+their kernels: 35 ms of imports on the 2-core machine). The constants the entries need live here too; the modules
 import them from here.
 """
 
