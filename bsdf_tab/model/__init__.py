@@ -75,9 +75,18 @@ from .fresnel import (
     fresnel_conductor,
     fresnel,
 )
+from .ggx_aniso import (  # imported by ggx anyway
+    aniso_widths,
+    ggx_aniso_D,
+    ggx_aniso_G1,
+    ggx_aniso_lambda,
+    ggx_aniso_lambda_cos,
+    ggx_aniso_pdf_vndf,
+    ggx_aniso_sample_vndf,
+)
 
 # The models no integrator of the adaptive path calls (the BSDF point evaluation, the
-# multiple-scattering compensation, the LTC lobe, the Charlie sheen, anisotropic GGX) load on
+# multiple-scattering compensation, the LTC lobe, the Charlie sheen) load on
 # first use (PEP 562 ``__getattr__``): ``from bsdf_tab.model import charlie_D`` works as before,
 # and a command that integrates isotropic tables (``plan``) does not define their Warp functions
 # (17-20 ms of imports on the 2-core machine).
@@ -101,15 +110,6 @@ _LAZY = {
         "charlie_V_exact",
         "charlie_V_fitted",
     ), "charlie"),
-    **dict.fromkeys((
-        "aniso_widths",
-        "ggx_aniso_D",
-        "ggx_aniso_G1",
-        "ggx_aniso_lambda",
-        "ggx_aniso_lambda_cos",
-        "ggx_aniso_pdf_vndf",
-        "ggx_aniso_sample_vndf",
-    ), "ggx_aniso"),
 }
 
 
