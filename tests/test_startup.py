@@ -169,3 +169,118 @@ def test_service_warm_up_lets_a_request_in_between_kinds(tmp_path, monkeypatch):
         done_at_answer = len(warmed)
         assert r.status_code == 200, r.text
     assert done_at_answer < len(kinds), (done_at_answer, kinds)
+
+
+# --------------------------------------------------------------------------- the plan's imports
+
+#: Modules the ``plan`` path never needs: the fixed-effort integration methods, the table kinds
+#: with kernels of their own and the device models no isotropic table integrates with (they load
+#: on first use).
+PLAN_UNUSED = ("bsdf_tab.integrate.grid", "bsdf_tab.integrate.montecarlo", "bsdf_tab.integrate.vndf_gl",
+               "bsdf_tab.tables.bsdf", "bsdf_tab.tables.ltc", "bsdf_tab.tables.sheen", "bsdf_tab.tables.aniso",
+               "bsdf_tab.ltc", "bsdf_tab.model.charlie", "bsdf_tab.model.ltc", "bsdf_tab.model.multiscatter",
+               "bsdf_tab.model.bsdf", "tomllib")
+
+
+def test_plan_command_does_not_import_the_unused_methods_and_models(tmp_path):
+    """A whole ``bsdf-tab plan`` (a small scene: one Schlick material, one interpolated axis)
+    runs without loading them; the table code it needs is loaded (the check can fail)."""
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"materials": [
+        {"name": "p", "type": "schlick", "f0": 0.04, "alpha": {"range": [0.2, 0.3]}}]}))
+    got = _modules_after(f"""
+        import contextlib, io
+        from bsdf_tab.cli import main
+        with contextlib.redirect_stdout(io.StringIO()) as buf:
+            code = main(["plan", {str(scene)!r}, "--tol", "1e-2", "--json", "-q"])
+        out = [code, json.loads(buf.getvalue())["tables"][0]["table"],
+               [m for m in {PLAN_UNUSED!r} if m in sys.modules],
+               [m for m in ("bsdf_tab.integrate.adaptive", "bsdf_tab.model.fresnel") if m in sys.modules]]
+    """.replace("json.loads", "__import__('json').loads"))
+    code, kind, unused, used = got["out"]
+    assert code == 0 and kind == "dfg", got
+    assert unused == [], unused
+    assert len(used) == 2 and "warp" in got["loaded"], got
+
+
+def test_the_method_registry_knows_every_method_before_loading_it():
+    got = _modules_after("""
+        import bsdf_tab.integrate as integrate
+        names = list(integrate.METHODS)
+        before = [m for m in ("bsdf_tab.integrate.grid", "bsdf_tab.integrate.montecarlo",
+                              "bsdf_tab.integrate.vndf_gl") if m in sys.modules]
+        known = ["mc_vndf" in integrate.METHODS, "no_such" in integrate.METHODS, len(integrate.METHODS)]
+        fn = integrate.get_method("mc_vndf")
+        import bsdf_tab.integrate.montecarlo as mc
+        import bsdf_tab.integrate.grid as grid, bsdf_tab.integrate.vndf_gl as gl
+        registered = {"adaptive": integrate.integrate_texels, **grid.METHODS, **mc.METHODS, **gl.METHODS}
+        same = all(integrate.METHODS[k] is v for k, v in registered.items())
+        try:
+            integrate.get_method("no_such")
+            unknown = "no error"
+        except ValueError as exc:
+            unknown = str(exc)
+        out = [names, sorted(registered), before, known, fn is mc.METHODS["mc_vndf"], same, unknown]
+    """)
+    names, registered, before, known, fn_ok, same, unknown = got["out"]
+    assert names[0] == "adaptive" and sorted(names) == registered, got  # every module's methods, no more
+    assert before == [] and known == [True, False, len(registered)], got
+    assert fn_ok and same and "no_such" in unknown and "vndf_gl" in unknown, got
+
+
+def test_a_method_replaced_before_its_module_loads_stays_replaced():
+    got = _modules_after("""
+        import bsdf_tab.integrate as integrate
+        integrate.METHODS["grid"] = len
+        a = integrate.METHODS["grid"] is len
+        b = integrate.get_method("grid") is len
+        import bsdf_tab.integrate.grid as grid
+        c = integrate.METHODS["grid"] is len and grid.METHODS["grid"] is not len
+        out = [a, b, c]
+    """)
+    assert got["out"] == [True, True, True], got
+
+
+def test_lazy_model_names_resolve_to_their_modules():
+    got = _modules_after("""
+        import bsdf_tab.model as model
+        before = [m for m in ("bsdf_tab.model.charlie", "bsdf_tab.model.ltc") if m in sys.modules]
+        from bsdf_tab.model import charlie_D, ltc_eval, brdf, kc_C, ggx_aniso_D, GGX, fresnel
+        import bsdf_tab.model.charlie, bsdf_tab.model.ltc, bsdf_tab.model.bsdf, bsdf_tab.model.multiscatter
+        same = [charlie_D is bsdf_tab.model.charlie.charlie_D, ltc_eval is bsdf_tab.model.ltc.ltc_eval,
+                brdf is bsdf_tab.model.bsdf.brdf, kc_C is bsdf_tab.model.multiscatter.kc_C]
+        ns = {}
+        exec("from bsdf_tab.model import *", ns)
+        missing = [n for n in model.__all__ if n not in ns]
+        try:
+            model.no_such_function
+            unknown = "no error"
+        except AttributeError as exc:
+            unknown = str(exc)
+        out = [before, same, missing, "charlie" in model.__all__ and "charlie_D" in dir(model), unknown]
+    """)
+    before, same, missing, listed, unknown = got["out"]
+    assert before == [] and all(same) and missing == [] and listed, got
+    assert "no_such_function" in unknown, got
+
+
+def test_deferred_kind_functions_are_the_modules_functions():
+    got = _modules_after("""
+        import pickle
+        from bsdf_tab.tables import CATALOG, KINDS
+        from bsdf_tab.tables.kinds import Deferred
+        deferred = sorted(k for k, info in KINDS.items() if isinstance(info["compute"], Deferred))
+        before = [m for m in ("bsdf_tab.tables.sheen", "bsdf_tab.tables.bsdf") if m in sys.modules]
+        import bsdf_tab.tables.aniso as aniso, bsdf_tab.tables.bsdf as bsdf, bsdf_tab.tables.ltc as ltc
+        import bsdf_tab.tables.sheen as sheen
+        same = [KINDS["bsdf"]["compute"].resolve() is bsdf.compute, KINDS["bsdf"]["blocks"].resolve() is bsdf.blocks,
+                KINDS["ltc"]["compute"].resolve() is ltc.compute, KINDS["albedo_aniso"]["compute"].resolve() is aniso.compute,
+                KINDS["sheen_albedo"]["compute"].resolve() is sheen.compute,
+                KINDS["sheen_albedo_avg"]["compute"].resolve() is sheen.compute_avg,
+                pickle.loads(pickle.dumps(KINDS["sheen_albedo"]["compute"])).resolve() is sheen.compute]
+        out = [deferred, before, same, list(CATALOG["ltc"]["channels"]) == list(ltc.CHANNELS),
+               list(CATALOG["sheen_albedo"]["keys"]["sheen_shadowing"]["choices"]) == list(sheen.SHEEN_SHADOWINGS)]
+    """)
+    deferred, before, same, ltc_channels, sheen_choices = got["out"]
+    assert deferred == ["albedo_aniso", "bsdf", "ltc", "sheen_albedo", "sheen_albedo_avg"], got
+    assert before == [] and all(same) and ltc_channels and sheen_choices, got

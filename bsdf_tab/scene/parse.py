@@ -27,7 +27,6 @@ lookup (interpolation, spacings), ranges and the lookup tolerance.
 from __future__ import annotations
 
 import json
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +92,8 @@ def load_scene_file(path: str | Path) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError(None, f"cannot read {p}: {exc}") from None
     if p.suffix.lower() == ".toml":
+        import tomllib  # only for TOML scenes: 2 ms of imports a JSON scene does not need
+
         try:
             return tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:

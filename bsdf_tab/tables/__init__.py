@@ -11,18 +11,23 @@ slots), ``chunk_axis`` (the axis a cluster cuts the table along; default 0).
 :mod:`bsdf_tab.spec` validates against :data:`CATALOG`; :mod:`bsdf_tab.api` is the only
 caller of the functions.
 
-Adding a table kind: a module here with its ``KINDS``, and its name in :data:`_MODULES`.
+Adding a table kind: a module here with its ``KINDS``, and its name in :data:`_MODULES`. A kind
+whose module defines Warp kernels of its own declares its entry in :mod:`.kinds` instead, with
+:class:`~.kinds.Deferred` functions: its module is imported when a table of it is first computed,
+so a command that never computes one (``bsdf-tab plan``) does not define those kernels.
 """
 
 from __future__ import annotations
 
-from . import albedo, aniso, bsdf, dfg, dielectric, ltc, multiscatter, sheen
+from . import albedo, dfg, dielectric, kinds, multiscatter
 from ._common import Context
 
-_MODULES = (albedo, dielectric, dfg, bsdf, multiscatter, ltc, sheen, aniso)
+#: The kinds' declarations, in catalog order (``kinds.*_KINDS``: entries of the modules loaded on first use).
+_MODULES = (albedo.KINDS, dielectric.KINDS, dfg.KINDS, kinds.BSDF_KINDS, multiscatter.KINDS, kinds.LTC_KINDS,
+            kinds.SHEEN_KINDS, kinds.ANISO_KINDS)
 
 #: Kind name -> its entry (with the functions).
-KINDS: dict[str, dict] = {name: info for module in _MODULES for name, info in module.KINDS.items()}
+KINDS: dict[str, dict] = {name: info for declared in _MODULES for name, info in declared.items()}
 
 _FUNCTIONS = ("compute", "blocks")
 

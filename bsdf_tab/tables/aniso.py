@@ -272,17 +272,3 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
     E, err = albedo_aniso_values(M, P, ax, ay, nspec["shadowing"], ctx.device, workers=ctx.workers,
                                  progress=ctx.reporter())
     return {"E": E, "E_err": err}
-
-
-KINDS = {
-    "albedo_aniso": {
-        "axes": ("mu", "phi_v", "alpha", "anisotropy"),
-        "channels": ("E",),
-        "fresnel": "one",
-        "methods": ("gauss_kronrod",),
-        "description": "directional albedo E(mu, phi_v, alpha, anisotropy) of anisotropic GGX (F = 1): "
-        "alpha_x = alpha / sqrt(1 - 0.9 a), alpha_y = alpha sqrt(1 - 0.9 a) (alpha = sqrt(alpha_x alpha_y)), "
-        "phi_v = view azimuth from the tangent (alpha_x) direction",
-        "compute": compute,
-    },
-}

@@ -479,23 +479,3 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
         for name in CHANNELS:
             out[name][start:end] = channels[name]
     return out
-
-
-KINDS = {
-    "bsdf": {
-        # axes of the default parametrization; see "parametrizations"
-        "axes": ("theta_i", "theta_o", "phi_d"),
-        "channels": ("f_r", "f_t"),
-        "fresnel": "any",
-        "methods": ("point",),
-        "params": ("alpha", "roughness", "parametrization"),
-        "parametrizations": {
-            "angles": ("theta_i", "theta_o", "phi_d"),
-            "half_diff": ("theta_h", "theta_d", "phi_d"),
-        },
-        "description": "BSDF values f_r (reflection) and f_t (transmission, dielectric Fresnel) of one "
-        "material on an angular grid: plain angles or Rusinkiewicz half/difference angles (MERL layout)",
-        "compute": compute,
-        "blocks": blocks,
-    },
-}

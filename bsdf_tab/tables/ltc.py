@@ -50,11 +50,9 @@ from ..axes import alpha_values
 from ..ltc import fit_metrics, fit_table, sphere_term_at, storage, upper_mass
 from ..ltc.fit import SHADING
 from ._common import Context, run_grid
+from .kinds import LTC_AMPLITUDES as AMPLITUDES  # noqa: F401  (this module's names before kinds.py)
+from .kinds import LTC_CHANNELS as CHANNELS, LTC_MATRIX_CHANNELS as MATRIX_CHANNELS
 
-MATRIX_CHANNELS = ("Minv_00", "Minv_20", "Minv_02", "Minv_22", "M_00", "M_20", "M_02", "M_22")
-CHANNELS = MATRIX_CHANNELS + ("E", "fresnel", "sphere", "horizon", "magnitude", "magnitude_fresnel", "fit_l1",
-                               "fit_l1_clipped")
-AMPLITUDES = ("horizon", "albedo", "shading")
 _ROUNDING = 8.0 * np.finfo(np.float64).eps
 
 
@@ -128,34 +126,3 @@ def compute(nspec: dict, axes: dict, ctx: Context) -> dict:
                 "magnitude_fresnel_err": amp * errors[..., 1] + _ROUNDING * amp * values[..., 1],
                 "fit_l1_err": fit_l1_err, "fit_l1_clipped_err": clip_l1_err})
     return out
-
-
-KINDS = {
-    "ltc": {
-        "axes": ("mu", "alpha"),
-        "channels": CHANNELS,
-        "fresnel": "one",
-        "description": "Linearly Transformed Cosine fit (Heitz et al. 2016) of the BRDF lobe f_r cos / E: "
-        "Minv / Minv_11 entries (Minv_00, Minv_20, Minv_02, Minv_22: the ltc_1 RGBA of the public code and "
-        "three.js), M = its inverse, the exact albedo E, the Schlick split amplitude fresnel (ltc_2.y), the "
-        "clipped-sphere term sphere (ltc_2.w at u = roughness, v = sqrt(1 - mu)) and the L1 fit error fit_l1 "
-        "= int |D_ltc - f_r cos / E| in [0, 2]; horizon (the lobe's mass above the horizon), magnitude and "
-        "magnitude_fresnel (the amplitudes shading multiplies the polygon integral by: E / horizon, fresnel / horizon "
-        "with amplitude horizon, E and fresnel with amplitude albedo) and fit_l1_clipped (int over the upper "
-        "hemisphere of |(magnitude / E) D_ltc - f_r cos / E|: E fit_l1_clipped / 2 bounds the shading error of a "
-        "light above the horizon with the horizon amplitude)",
-        "keys": {
-            "amplitude": {
-                "choices": AMPLITUDES,
-                "default": "horizon",
-                "description": "the shading amplitude and the fit objective: horizon (magnitude = E / the LTC's mass "
-                "above the horizon, the fit minimizes fit_l1_clipped), albedo (magnitude = E as the public code "
-                "stores it, the fit minimizes fit_l1) or shading (the horizon fit, then the matrix and magnitude = "
-                "s E / horizon polished on fit_l1_clipped + 100 x the mean shading error over 96 fixed quad lights per "
-                "texel with fit_l1 (fine fit rule) held within 0.5% of the fit's (grazing rows, mu <= 0.22: + fit_l1, unconstrained); a "
-                "light above the horizon is shaded within E (fit_l1_clipped + |s - 1|) / 2)",
-            },
-        },
-        "compute": compute,
-    },
-}

@@ -46,12 +46,11 @@ from ..model.charlie import (
     charlie_projected_area_table,
 )
 from ._common import Context
+from .kinds import SHEEN_SHADOWINGS
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-#: The shadowing choices (the spec's ``sheen_shadowing`` of the sheen kinds) -> kernel mode.
-SHEEN_SHADOWINGS = {"fitted": 0, "exact": 1, "ashikhmin": 2}
 _MAX_GRADED = 48
 _INNER_PANELS = 4
 _MAX_INNER = 64
@@ -309,39 +308,3 @@ def compute_avg(nspec: dict, axes: dict, ctx: Context) -> dict:
     E, err = sheen_albedo_avg_values(alpha, nspec["sheen_shadowing"], ctx.device)
     ctx.reporter()(60 * alpha.size, 60 * alpha.size)
     return {"E_avg": E, "E_avg_err": err}
-
-
-_SHEEN_PARAMS = {
-    "methods": ("gauss_kronrod",),
-    "keys": {
-        "sheen_shadowing": {
-            "choices": tuple(SHEEN_SHADOWINGS),
-            "default": "fitted",
-            "legacy": "parametrization",  # the spelling before the key existed (still accepted)
-            "description": "the Charlie shadowing / visibility: fitted (Estevez-Kulla fitted Lambda, glTF V_Sheen "
-            "clamped to [0, 1]), exact (the Smith Lambda of D, height-correlated), ashikhmin (Filament V_Neubelt)",
-        },
-    },
-}
-
-KINDS = {
-    "sheen_albedo": {
-        "axes": ("mu", "alpha"),
-        "channels": ("E",),
-        "fresnel": "one",
-        "description": "directional albedo E(mu, alpha) of the Charlie sheen BRDF (Estevez and Kulla 2017), "
-        "alpha = sheenRoughness^2; sheen_shadowing: fitted (glTF V_Sheen), exact (Smith), "
-        "ashikhmin (Filament V_Neubelt)",
-        "compute": compute,
-        **_SHEEN_PARAMS,
-    },
-    "sheen_albedo_avg": {
-        "axes": ("alpha",),
-        "channels": ("E_avg",),
-        "fresnel": "one",
-        "description": "hemispherical average 2 int_0^1 E(mu) mu dmu of the Charlie sheen albedo; "
-        "sheen_shadowing: fitted, exact, ashikhmin",
-        "compute": compute_avg,
-        **_SHEEN_PARAMS,
-    },
-}

@@ -166,3 +166,51 @@ def test_first_tabulation_of_a_kind_runs_alone():
     assert run_groups([task(i) for i in range(3)], 3, None, None) == [0, 1, 2]
     # the first one ran alone; later ones of the warmed kind overlapped
     assert state["before_first"] == 0 and state["max"] >= 2
+
+
+def test_core_share_splits_the_workers_among_the_running_groups():
+    share = plan_module._CoreShare(4)
+    assert share.now() == 4  # no group running yet: all of them
+    share.enter()
+    assert share.now() == 4  # one group alone: all of them
+    share.enter()
+    assert share.now() == 2
+    share.enter()
+    assert share.now() == 1  # 4 // 3
+    for _ in range(3):
+        share.leave()
+    assert share.running == 0 and share.now() == 4
+    alone = plan_module._CoreShare(None)  # None: all cores, passed on as None when alone
+    assert alone.now() is None
+    alone.enter(), alone.enter()
+    assert alone.now() == max(1, plan_module._cores() // 2)
+
+
+def test_tabulations_use_one_worker_each_while_two_groups_run(monkeypatch):
+    """Two groups on threads (two cores' worth of workers): a tabulation of 32 texels or more
+    gets one worker while the other group runs, both when it runs alone; the plan is the one
+    of the groups one after the other (values do not depend on the worker count)."""
+    monkeypatch.setattr(plan_module, "_cores", lambda: 2)
+    seen = []
+    real = bsdf_tab.api.tabulate
+
+    def recording(spec, **kw):
+        texels = 1
+        for v in spec["axes"].values():
+            texels *= len(v)
+        seen.append((texels, kw.get("workers")))
+        return real(spec, **kw)
+
+    monkeypatch.setattr(plan_module, "GROUP_THREADS", 2)
+    monkeypatch.setattr(bsdf_tab.api, "tabulate", recording)
+    threaded = plan_scene(SCENE, 1e-2)
+    big = [w for n, w in seen if n >= plan_module.SMALL_BLOCK]
+    assert all(w == 1 for n, w in seen if n < plan_module.SMALL_BLOCK)
+    assert 1 in big, seen  # some while the other group ran
+    assert set(big) <= {1, None}, seen  # None: all cores, a group alone
+    seen.clear()
+    monkeypatch.setattr(plan_module, "GROUP_THREADS", 1)
+    serial = plan_scene(SCENE, 1e-2)
+    assert {w for n, w in seen if n >= plan_module.SMALL_BLOCK} <= {None}, seen  # one group at a time
+    dump = lambda p: json.dumps(p.to_dict(), default=json_default, sort_keys=True)  # noqa: E731
+    assert dump(threaded) == dump(serial)
