@@ -36,11 +36,11 @@ their value, and each inner integral aims at its share / 4: single inner estimat
 under-report (below), and with the map the outer level no longer bisects enough to absorb that
 (a texel at 1e-7 reported 0.79 of its true error with the factor 1). The outer integral starts from the breakpoints above, each piece between
 them cut into equal parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances
->= 5e-7) and no longer than ``max_piece`` = 1/4 in v: the v map packs theta_m >> alpha into a
+>= 5e-7) and no longer than ``max_piece`` = 1/4 in v (1/2 at tolerances >= 1e-4): the v map packs theta_m >> alpha into a
 sliver near v = 1, where a single rule could otherwise step over the horizon structure
-unnoticed. Rough texels (alpha >= ``rough_alpha`` = 0.3, tolerances >= 1e-4), whose tail is
-not packed, start from parts <= pi/8 and pieces <= 1/2 (issue 14, fourth round; pi/4 until
-the sixth, which under-reported with the map). ``n_fixed``
+unnoticed. (Issue 14's fourth round gave rough texels, alpha >= 0.3, a coarser floor at
+tolerances >= 1e-4; with the map its pi/4 parts under-reported, and the floor of every texel
+there is now its pi/8 parts and 1/2 pieces: the rough floor is gone.) ``n_fixed``
 fixed angles theta_m = k pi/16 were the floor before issue 14's second round; docs/methods.md
 has the measurements behind every constant.
 
@@ -349,7 +349,6 @@ def texel_kernel(
     err_safety: wp.float64,
     err_power: wp.float64,
     max_dtheta: wp.float64,
-    rough: wp.vec3d,
     err_floor: wp.float64,
     bound_share: wp.float64,
     inner_first: wp.int32,
@@ -376,10 +375,6 @@ def texel_kernel(
     p.err_power = err_power
     p.bound_share = bound_share
     p.inner_first = inner_first
-    if p.alpha >= rough[0]:
-        # a rough texel's D tail is not packed into a sliver of v: the coarser floor rough[1:]
-        max_dtheta = rough[1]
-        max_piece = rough[2]
     p.first_share = first_share
     p.first_safety = first_safety
     # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
@@ -436,15 +431,12 @@ def integrate_texels(
     max_rules_outer: int = 400,
     max_rules_inner: int = 200,
     inner_share: float = 0.85,
-    max_piece: float = 0.25,
+    max_piece: float | None = None,
     n_fixed: int = 0,
     err_model_inner: int = 2,
     err_safety: float = 1.0,
     err_power: float = 3.0,
     max_dtheta: float | None = None,
-    rough_alpha: float | None = None,
-    rough_dtheta: float = math.pi / 8,
-    rough_piece: float = 0.5,
     bound_share: float | None = None,
     inner_first: int = 5,
     first_share: float = 1.0,
@@ -465,11 +457,11 @@ def integrate_texels(
         Target absolute error per texel and channel.
     inner_share, max_piece, n_fixed, max_dtheta : float, float, int, float
         The floor and the budget (benchmarks and experiments): the share of the tolerance given
-        to the inner phi integrals (0.85; 0.7 before issue 14's sixth round, 0.25 before its second), the longest initial outer piece in v (0.25), the
+        to the inner phi integrals (0.85; 0.7 before issue 14's sixth round, 0.25 before its second), the longest initial outer piece in v (None: 1/2 at tolerances >= 1e-4, 1/4 below), the
         number of fixed angles theta_m = k (pi/2) / (n_fixed + 1) among the initial outer
         breakpoints (0; 7 before issue 14's second round), and the widest initial outer piece in
-        theta_m (None: pi/8 at tolerances >= 5e-7, pi/16 below; 0: no such cut); for alpha >=
-        ``rough_alpha`` (None: 0.3 at tolerances >= 1e-4) ``rough_dtheta`` (pi/8), ``rough_piece`` (1/2). ``err_model_inner``: the inner level's error model
+        theta_m (None: pi/8 at tolerances >= 5e-7, pi/16 below; 0: no such cut).
+        ``err_model_inner``: the inner level's error model
         (-1: ``err_model``; 2, the default: |K15 - G7| times min(1, err_safety r^err_power),
         r the Legendre decay ratio; ``err_safety`` 1, ``err_power`` 3). ``bound_share``: the
         share of the budget for the D tail left out under its mass bound (None: 0.25 at
@@ -500,15 +492,14 @@ def integrate_texels(
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
     # were measured under smaller estimates), down to 1e-10 (float64 sums of ~1e5 terms) below
     err_floor = max(1e-10, min(1e-9, 0.01 * float(tol)))
+    if max_piece is None:
+        # pieces <= 1/2 in v at tolerances >= 1e-4 (issue 14 round 6, with the outer map: -13% ..
+        # -16% evaluations there; at 5e-7 1/2 under-reported), 1/4 below
+        max_piece = 0.5 if tol >= 1e-4 else 0.25
     if max_dtheta is None:
         # the floor follows the tolerance: pi/8 parts at tolerances >= 5e-7 (the spec's; >= 1e-5
         # before the outer map of issue 14's sixth round), pi/16 below (pi/8 under-reported at 1e-7)
         max_dtheta = math.pi / 8 if tol >= 5e-7 else math.pi / 16
-    if rough_alpha is None:
-        # rough texels (alpha >= 0.3) get parts <= pi/4 in theta_m and pieces <= 1/2 in v at
-        # tolerances >= 1e-4 (below, the finer floor is cheaper: docs/methods.md)
-        rough_alpha = 0.3 if tol >= 1e-4 else math.inf
-    rough = (float(rough_alpha), float(rough_dtheta), float(rough_piece))
     if bound_share is None:
         # D tails left out at tolerances >= 1e-4 (-4 .. -9% evaluations there; ~1% below, where
         # a missing tail of up to tol / 4 would only move values that are otherwise ~exact)
@@ -525,7 +516,7 @@ def integrate_texels(
         mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
         float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
         float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
-        wp.vec3d(*rough), err_floor,
+        err_floor,
         float(bound_share), int(inner_first), float(first_share), float(first_safety), int(outer_map), float(inner_carry), value, error, cost, detail,
     ], dev)
 
