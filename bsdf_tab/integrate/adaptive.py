@@ -27,7 +27,7 @@ theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta
 critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integrate.outer`), and
 each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
 outer integrand's kinks and half-integer powers sit at the piece ends, where the map makes them
-smooth; -22% evaluations at 5e-7 on the 1634-texel harness).
+smooth; with the round's other changes -36% evaluations at 5e-7 on the 1634-texel harness).
 
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
 sum meets the budget: ``inner_share`` = 0.85 of the tolerance for the inner integrals, the rest
@@ -263,7 +263,9 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
 
 @wp.func
 def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
-    """G7-K15 over v in [va, vb] of 2 (1 - v) * inner(v), x = (tol_in, max_rules_inner).
+    """G7-K15 over w in [wa, wb] of 2 (1 - v) inner(v) dv/dw, v = v(w) the piece map of
+    ``x.ends`` (:func:`bsdf_tab.integrate.outer.v_of_w`); ``x`` also carries the inner budget per
+    unit v, the inner rule cap and the factor on the inner estimates.
 
     v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`).
     Returns (K, error incl. the inner estimates, (inner rule applications, of which bisections))."""
@@ -312,8 +314,8 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     if p.err_model == 2:
         r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
         est = gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power) + ei * hl
-    va, dva = v_of_w(x, wa)
-    vb, dvb = v_of_w(x, wb)
+    va, _dva = v_of_w(x, wa)  # (dv/dw unused: the bound is over the piece in v)
+    vb, _dvb = v_of_w(x, wb)
     bnd = mass_bound(p, va, vb)
     if bnd >= wp.float64(0.0):
         # the true value and K (positive weights, g >= 0) are both in [0, max(K, bnd)]
