@@ -110,6 +110,7 @@ _vec16d = vec16d
 
 _PI = wp.constant(wp.float64(math.pi))
 INNER_CARRY = 4.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, round 6)
+OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 
 
@@ -262,47 +263,72 @@ def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: 
 
 
 @wp.func
+def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.int32):
+    """One outer node (j < 8 at +XGK[j], else -XGK[j - 8] of [ctr - hl, ctr + hl] in w): the inner
+    integral times the Jacobian 2 (1 - v) dv/dw, its estimate times the same and ``x.carry``,
+    and the inner rule counts (applications, of which bisections)."""
+    one = wp.float64(1.0)
+    jj = j
+    sgn = one
+    if j >= 8:
+        jj = j - 8
+        sgn = -one
+    v, dvdw = v_of_w(x, ctr + sgn * hl * XGK_D[jj])
+    tm = dcos_tan_of_v(v, p.alpha, p.dist)
+    cm = one / wp.sqrt(one + tm * tm)
+    sm = tm * cm
+    jac = wp.float64(2.0) * (one - v)
+    # the inner budget per unit v as before the map (its sum over the v range is tol_in)
+    f, e, used, used_ref = _inner(p, cm, sm, tm, x.tol_in / (jac * x.carry), x.max_rules)
+    jac = jac * dvdw
+    return f * jac, e * (jac * x.carry), wp.vec2i(used, used_ref)
+
+
+@wp.func
 def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     """G7-K15 over w in [wa, wb] of 2 (1 - v) inner(v) dv/dw, v = v(w) the piece map of
     ``x.ends`` (:func:`bsdf_tab.integrate.outer.v_of_w`); ``x`` also carries the inner budget per
-    unit v, the inner rule cap and the factor on the inner estimates.
+    unit v, the inner rule cap, the factor on the inner estimates and the first stage.
 
-    v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`).
+    v is the distribution's D cos CDF variable (:func:`bsdf_tab.model.dcos_tan_of_v`). With
+    ``x.first`` the 7 Gauss nodes come first, and G7 is accepted when ``x.safety`` |G7 - I5| plus
+    the carried inner estimates fits in ``x.thr`` per unit w (issue 14, seventh round); otherwise
+    the 8 Kronrod nodes are added (the 7 values reused).
     Returns (K, error incl. the inner estimates, (inner rule applications, of which bisections))."""
-    tol_in = x.tol_in
-    max_rules = x.max_rules
     half = wp.float64(0.5)
-    one = wp.float64(1.0)
     ctr = half * (wa + wb)
     hl = half * (wb - wa)
     rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    eg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     f0 = _vec16d()
     f1 = _vec16d()
     rules = wp.vec2i(0, 0)
     for j in range(15):
-        # nodes j < 8 at +XGK[j], the others at -XGK[j - 8]
-        jj = j
-        sgn = one
-        if j >= 8:
-            jj = j - 8
-            sgn = -one
-        v, dvdw = v_of_w(x, ctr + sgn * hl * XGK_D[jj])
-        tm = dcos_tan_of_v(v, p.alpha, p.dist)
-        cm = one / wp.sqrt(one + tm * tm)
-        sm = tm * cm
-        jac = wp.float64(2.0) * (one - v)
-        # the inner budget per unit v as before the map (its sum over the v range is tol_in)
-        f, e, used, used_ref = _inner(p, cm, sm, tm, tol_in / (jac * x.carry), max_rules)
-        jac = jac * dvdw
-        rules += wp.vec2i(used, used_ref)
-        f = f * jac
-        f0[j] = f[0]
-        f1[j] = f[1]
-        rk += WGK_D[jj] * f
-        rg += WG7_D[jj] * f
-        ei += WGK_D[jj] * jac * e * x.carry
+        if j % 2 == 1:
+            # the Gauss nodes (and Kronrod's with them)
+            f, e, used = _v_node(p, x, ctr, hl, j)
+            rules += used
+            f0[j] = f[0]
+            f1[j] = f[1]
+            rk += WGK_D[j % 8] * f
+            rg += WG7_D[j % 8] * f
+            ei += WGK_D[j % 8] * e
+            eg += WG7_D[j % 8] * e
+    if x.first > 0:
+        g, d = first_stage(f0, f1, hl, x.first, x.safety)
+        d = d + eg * hl
+        if wp.max(d[0], d[1]) <= x.thr * (wb - wa):
+            return g, d, rules
+    for j in range(15):
+        if j % 2 == 0:
+            f, e, used = _v_node(p, x, ctr, hl, j)
+            rules += used
+            f0[j] = f[0]
+            f1[j] = f[1]
+            rk += WGK_D[j % 8] * f
+            ei += WGK_D[j % 8] * e
     mean = rk * half
     resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for j in range(15):
@@ -358,6 +384,8 @@ def texel_kernel(
     first_safety: wp.float64,
     outer_map: wp.int32,
     inner_carry: wp.float64,
+    outer_first: wp.int32,
+    outer_first_safety: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -391,6 +419,12 @@ def texel_kernel(
     ox.max_rules = max_rules_inner
     ox.omap = outer_map
     ox.carry = inner_carry
+    ox.first = outer_first
+    ox.thr = wp.float64(0.0)
+    ox.safety = outer_first_safety
+    if ne > 0:
+        # the first stage's budget: the texel's, spread evenly over the initial pieces in w
+        ox.thr = (tol_total - skip) / wp.float64(ne)
     ox.ends = ends
     wends = vec48d()
     for q in range(ne + 1):
@@ -445,6 +479,8 @@ def integrate_texels(
     first_safety: float = FIRST_SAFETY,
     outer_map: bool = True,
     inner_carry: float = INNER_CARRY,
+    outer_first: int = 5,
+    outer_first_safety: float = OUTER_FIRST_SAFETY,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -489,6 +525,10 @@ def integrate_texels(
     dev = resolve_device(device)
     check_workers(workers)
     check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power)
+    if isinstance(outer_first, bool) or outer_first not in (0, 3, 5):
+        raise ValueError(f"outer_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {outer_first!r}")
+    if not (math.isfinite(float(outer_first_safety)) and float(outer_first_safety) > 0.0):
+        raise ValueError(f"outer_first_safety must be a finite number > 0, got {outer_first_safety!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):
         raise ValueError(f"inner_carry must be finite and > 0, got {inner_carry!r}")
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
@@ -519,7 +559,7 @@ def integrate_texels(
         float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
         float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
         err_floor,
-        float(bound_share), int(inner_first), float(first_share), float(first_safety), int(outer_map), float(inner_carry), value, error, cost, detail,
+        float(bound_share), int(inner_first), float(first_share), float(first_safety), int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), value, error, cost, detail,
     ], dev)
 
     # interleave the texels so that expensive ones (grazing mu) spread over the workers

@@ -40,6 +40,9 @@ class OuterX:
     max_rules: wp.int32
     omap: wp.int32
     carry: wp.float64
+    first: wp.int32  # the outer first stage (0: off; 5: G7 accepted on first_safety |G7 - I5|)
+    thr: wp.float64  # its tolerance per unit w
+    safety: wp.float64  # its factor on |G7 - I5|
     ends: vec48d
 
 
