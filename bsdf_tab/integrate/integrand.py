@@ -85,6 +85,7 @@ class TexelParams:
     inner_first: wp.int32  # adaptive only: the inner two-stage rule's first estimate (0: off; 5, 3)
     first_share: wp.float64  # adaptive only: the share of an interval's tolerance the first stage may use
     first_safety: wp.float64  # adaptive only: the factor on the first stage's |G7 - I5| (make_texel: 1)
+    inner_map: wp.int32  # adaptive only: the inner pieces' map
     bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 
 

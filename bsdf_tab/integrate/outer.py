@@ -24,6 +24,7 @@ from ..model.distribution import dcos_v_of_theta
 from .integrand import (
     HALF_PI64, MODE_DIELECTRIC, TexelParams, insert_sorted, mass_bound, tir_eta, transmission_breaks, vec24d,
 )
+from .quadrature import end_map
 
 # no kernel of this module is differentiated: no adjoint code
 wp.set_module_options({"enable_backward": False})
@@ -53,10 +54,8 @@ def v_of_w(x: OuterX, w: wp.float64):
     t = w - wp.float64(k)
     va = x.ends[k]
     dv = x.ends[k + 1] - va
-    if x.omap == 0:
-        return va + dv * t, dv
-    one = wp.float64(1.0)
-    return va + dv * t * t * (wp.float64(3.0) - wp.float64(2.0) * t), dv * wp.float64(6.0) * t * (one - t)
+    s, ds = end_map(t, wp.where(x.omap == 0, 0, 3))
+    return va + dv * s, dv * ds
 
 
 @wp.func

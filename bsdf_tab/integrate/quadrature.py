@@ -170,6 +170,26 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
     return g * hl, out
 
 
+@wp.func
+def end_map(t: wp.float64, ends: wp.int32):
+    """(s, ds/dt): the map of t in [0, 1] onto a piece's s in [0, 1] that flattens the mapped ends
+    (``ends``: 1 the start, 2 the end, 3 both, 0 none). Both: the smoothstep s = 3t^2 - 2t^3; the
+    start only: s = t^2; the end only: s = 1 - (1 - t)^2; none: s = t. At a mapped end a
+    square-root behaviour sqrt(s) becomes linear in t and a kink smooth; an unmapped end keeps the
+    rule's nodes where a smooth integrand needs them (issue 14, seventh round: the inner phi
+    pieces end at phi = 0 or pi, where the integrand is even and smooth, as often as at a cut)."""
+    one = wp.float64(1.0)
+    two = wp.float64(2.0)
+    if ends == 3:
+        return t * t * (wp.float64(3.0) - two * t), wp.float64(6.0) * t * (one - t)
+    if ends == 1:
+        return t * t, two * t
+    if ends == 2:
+        u = one - t
+        return one - u * u, two * u
+    return t, one
+
+
 def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power) -> None:
     """The inner error estimates' keywords, validated: the two-stage rule's ``inner_first`` 0
     (off), 5 (I5) or 3 (I3), ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1
