@@ -17,6 +17,7 @@ from bsdf_tab.integrate.quadrature import (
     WGK_D,
     XGK_D,
     decay_ratio,
+    end_map,
     gk_error,
     gk_error_decay,
     make_global_bisection,
@@ -232,3 +233,31 @@ def test_decay_estimate_stays_honest_on_singular_and_peaked_integrands():
         err = np.abs(out[k, :2] - exact)
         assert np.all(err <= out[k, 2:4]), (tol, err, out[k, 2:4])
         assert np.all(out[k, 2:4] <= tol), (tol, out[k, 2:4])
+
+
+@wp.kernel
+def _end_map_kernel(ends: int, t: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
+    k = wp.tid()
+    s, d = end_map(t[k], ends)
+    out[k, 0] = s
+    out[k, 1] = d
+
+
+@pytest.mark.parametrize("ends", [0, 1, 2, 3])
+def test_end_map_flattens_only_the_mapped_ends(ends):
+    t = np.linspace(0.0, 1.0, 201)
+    out = wp.zeros((t.size, 2), dtype=wp.float64, device="cpu")
+    wp.launch(_end_map_kernel, dim=t.size, inputs=[ends, wp.array(t, dtype=wp.float64, device="cpu"), out],
+              device="cpu")
+    s, d = out.numpy().T
+    assert s[0] == 0.0 and s[-1] == 1.0 and (np.diff(s) > 0).all()
+    # ds/dt is the derivative of s (central differences: exact up to h^2 / 6 times the third derivative)
+    np.testing.assert_allclose((s[2:] - s[:-2]) / (t[2:] - t[:-2]), d[1:-1], atol=1e-4)
+    # Simpson over ds/dt (a polynomial of degree <= 2: exact) is the piece's length
+    simpson = (d[0] + d[-1] + 4 * d[1:-1:2].sum() + 2 * d[2:-1:2].sum()) / 600.0
+    assert simpson == pytest.approx(1.0, rel=1e-13)
+    # a mapped end has ds/dt = 0 there (a square root of s becomes linear in t), an unmapped one not
+    assert (d[0] == 0.0) == bool(ends & 1) and (d[-1] == 0.0) == bool(ends & 2)
+    if ends & 1:
+        ratio = np.sqrt(s[1:11]) / t[1:11]  # sqrt(s) ~ c t near a mapped start
+        assert ratio.max() / ratio.min() < 1.05
