@@ -110,7 +110,7 @@ _vec8d = wp.types.vector(length=8, dtype=wp.float64)
 _vec16d = vec16d
 
 _PI = wp.constant(wp.float64(math.pi))
-INNER_CARRY = 4.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, round 6)
+INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 

@@ -161,8 +161,9 @@ def test_two_stage_is_honest_and_cheaper(texels, tol):
     total_new, total_old = _honest_and_counted(texels, tol, {"inner_first": 0})
     # measured on these 26 texels: 0.69 / 0.80 / 0.95 of the evaluations of K15 always (0.62 /
     # 0.75 / 0.94 with the plain |G7 - I5|, first_safety 1); 0.78 / 0.86 / 0.95 after issue 14 round 6;
-    # 0.82 / 0.90 / 0.97 with round 7's outer first stage (fewer outer nodes on both sides)
-    limit = {1e-2: 0.85, 1e-3: 0.92, 5e-7: 0.98}[tol]
+    # 0.82 / 0.90 / 0.97 with round 7's outer first stage (fewer outer nodes on both sides), 0.62 /
+    # 0.67 / 0.95 with its inner end maps and carry 2 (pieces no longer mapped at phi = 0 or pi)
+    limit = {1e-2: 0.7, 1e-3: 0.75, 5e-7: 0.97}[tol]
     assert total_new <= limit * total_old, (tol, total_new, total_old)
 
 
@@ -346,7 +347,9 @@ def test_first_stage_margin(texels, tol):
     # round). The power: the first stage scaled by 0.05 (first_safety 0.4) with the carry removed
     # gives 0.157 / 0.101 at 1e-2 / 1e-3, scaled by 0.0125 (0.1) 0.597 at 5e-7; the carry alone
     # absorbs the scaled first stage (0.039 / 0.065 at 0.4). With round 7's outer first stage:
-    # 0.017 / 0.009 / 0.392, and the scaled inner stage 0.132 (0.0125) / 0.156 (0.05) / 0.587 (0.0125)
+    # 0.017 / 0.009 / 0.392, and the scaled inner stage 0.132 (0.0125) / 0.156 (0.05) / 0.587 (0.0125);
+    # with its inner end maps and carry 2: 0.047 / 0.063 / 0.105, scaled 0.086 (0.0125) / 0.183
+    # (0.005) / 0.449 (0.002)
     def worst(**kw):
         w = 0.0
         for mode, k2, mu, alpha, eta, refs in texels:
@@ -356,8 +359,8 @@ def test_first_stage_margin(texels, tol):
                     w = max(w, (abs(v[k, ch] - rr.value) - rr.err) / e[k, ch])
         return w
 
-    bound = {1e-2: 0.05, 1e-3: 0.05, 5e-7: 0.5}[tol]
-    scale = {1e-2: 0.0125, 1e-3: 0.05, 5e-7: 0.0125}[tol]
+    bound = {1e-2: 0.06, 1e-3: 0.09, 5e-7: 0.3}[tol]
+    scale = {1e-2: 0.0125, 1e-3: 0.005, 5e-7: 0.002}[tol]
     assert worst() <= bound
     assert worst(first_safety=scale * adaptive.FIRST_SAFETY, inner_carry=1.0) > bound
 
