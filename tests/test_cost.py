@@ -34,8 +34,9 @@ def test_the_issue_cases_are_over_a_minute():
     assert 25 < small.seconds < 150
     big = cost.estimate({"table": "dielectric", "tolerance": 1e-12,
                          "axes": {"mu": {"size": 64}, "alpha": {"size": 64}, "eta": {"size": 64}}})
-    # 262144 texels x ~1.7 ms (13x the 1e-3 texel): 440 core-s after issue 14's fifth round
-    assert big.seconds > 300
+    # 262144 texels x ~0.9 ms (13x the 1e-3 texel): 440 core-s after issue 14's fifth round, 234
+    # after its seventh; either way far above the service's synchronous limit of 60 (a 413)
+    assert big.seconds > 120
     # Monte Carlo cannot converge a mu-average: its cost is the round cap's
     avg = cost.estimate({"table": "albedo_avg", "axes": {"alpha": {"size": 8}}, "method": "mc_vndf", "effort": 4096})
     assert avg.seconds > 1000
