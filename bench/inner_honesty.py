@@ -30,7 +30,7 @@ import warp as wp
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bsdf_tab.integrate import adaptive  # noqa: E402
+from bsdf_tab.integrate.inner import inner_integral  # noqa: E402
 from bsdf_tab.integrate.integrand import MODE_DIELECTRIC, MODE_REFLECT, make_texel  # noqa: E402
 
 wp.config.quiet = True
@@ -64,7 +64,7 @@ def inner_kernel(mu: wp.array(dtype=wp.float64), alpha: wp.array(dtype=wp.float6
     p.inner_map = inner_map
     cm = wp.cos(theta_m[k])
     sm = wp.sin(theta_m[k])
-    r, e, used, used_ref = adaptive._inner(p, cm, sm, sm / cm, tol[k], max_rules)
+    r, e, used, used_ref = inner_integral(p, cm, sm, sm / cm, tol[k], max_rules)
     out[k, 0] = r[0]
     out[k, 1] = r[1]
     out[k, 2] = e[0]

@@ -16,8 +16,11 @@ For fixed theta_m, i.m = sin(theta_i) sin(theta_m) cos(phi) + mu cos(theta_m) is
 the reflection horizon o_r.n = 0 at i.m = mu / (2 cos theta_m), i.m = 0, total internal reflection
 at i.m = sqrt(1 - eta^2), and the transmission horizon o_t.n = 0 at
 i.m = mu / (2 cos theta_m) + (1 - eta^2) cos theta_m / (2 mu) (eta < 1, where that root is valid). The inner phi integral is
-split at those points, each piece mapped by phi = a + (b - a)(3 t^2 - 2 t^3) (which smooths the
-square-root behaviour of Fresnel at the critical angle and of the horizons), and integrated by
+split at those points, each piece mapped at the ends that need it (``inner_map``,
+:func:`bsdf_tab.integrate.quadrature.end_map`: s = t^2 at a cut, which makes the square root of
+Fresnel at the critical angle linear and the horizons' kinks smooth; no map at phi = 0 or pi,
+where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
+the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped), and integrated by
 adaptive G7-K15 as a two-stage rule (issue 14, fourth round): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise the
@@ -28,21 +31,22 @@ critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integra
 each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
 outer integrand's kinks and half-integer powers sit at the piece ends, where the map makes them
 smooth; with the round's other changes -36% evaluations at 5e-7 on the 1634-texel harness).
+The outer rule is two-stage too (issue 14, seventh round): its 7 Gauss nodes first, G7 accepted
+when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 32 |G7 - I5| plus the carried inner estimates fits in the
+interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported).
 
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
 sum meets the budget: ``inner_share`` = 0.85 of the tolerance for the inner integrals, the rest
-for the outer one). The inner estimates enter a texel's error at ``INNER_CARRY`` = 4 times
-their value, and each inner integral aims at its share / 4: single inner estimates can
-under-report (below), and with the map the outer level no longer bisects enough to absorb that
-(a texel at 1e-7 reported 0.79 of its true error with the factor 1). The outer integral starts from the breakpoints above, each piece between
-them cut into equal parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances
->= 5e-7) and no longer than ``max_piece`` = 1/4 in v (1/2 at tolerances >= 1e-4): the v map packs theta_m >> alpha into a
-sliver near v = 1, where a single rule could otherwise step over the horizon structure
-unnoticed. (Issue 14's fourth round gave rough texels, alpha >= 0.3, a coarser floor at
-tolerances >= 1e-4; with the map its pi/4 parts under-reported, and the floor of every texel
-there is now its pi/8 parts and 1/2 pieces: the rough floor is gone.) ``n_fixed``
-fixed angles theta_m = k pi/16 were the floor before issue 14's second round; docs/methods.md
-has the measurements behind every constant.
+for the outer one). The inner estimates enter a texel's error at ``INNER_CARRY`` = 2 times
+their value, and each inner integral aims at its share / 2: single inner estimates can
+under-report (below), and with the outer map the outer level no longer bisects enough to absorb
+that (a texel at 1e-7 reported 0.79 of its true error with the factor 1 and the smoothstep at
+every inner end; 4 until the seventh round's inner end maps resolved it).
+The outer integral starts from the breakpoints above, each piece between them cut into equal
+parts in theta_m no wider than ``max_dtheta`` (pi/16; pi/8 at tolerances >= 5e-7) and no longer
+than ``max_piece`` = 1/4 in v (1/2 at tolerances >= 1e-4): the v map packs theta_m >> alpha into
+a sliver near v = 1, where a single rule could otherwise step over the horizon structure
+unnoticed. docs/methods.md has the measurements behind every constant.
 
 The D tail (issue 14, third round): :func:`bsdf_tab.integrate.integrand.mass_bound` is a
 rigorous upper bound of the outer integral over a piece of v (the piece's D cos mass, closed in
@@ -66,13 +70,12 @@ Legendre coefficients of the 15-node interpolant
 (:func:`bsdf_tab.integrate.quadrature.decay_ratio`): where the coefficients fall fast, K15 is
 resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|; an accepted
 first stage reports 8 |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`), the degree-6
-term of the 7 values' interpolant, not G7's error, blind to what 7 values do not resolve (one
-inner integral can under-report: 9 of 24000 random ones, 20 with 4 |G7 - I5|, 83 with the plain). Texel
-honesty rests on the outer level, measured, not proven: on 1634 reference texels
+term of the 7 values' interpolant, not G7's error, blind to what 7 values do not resolve
+(single inner integrals under-report: ``bench/inner_honesty.py``). Texel honesty rests on the
+outer level and the carry, measured, not proven: on 1634 reference texels
 (``bench/accuracy_honesty.py``, 1e-2 .. 1e-7) none reports less than its true error, worst
-heuristic ratio 0.44 (with the factor 4, one at 1e-3: 1.32); the outer rule compares K15 with G7
-over 15 inner results, so an inner miss perturbs the outer difference. The same estimate at the outer level, r^6, or the two-stage rule
-there under-reported (docs/methods.md). Rule applications are capped per texel (``max_rules_outer``,
+ratio 0.51 (docs/methods.md, also for the outer estimates that under-reported: the decay ratio,
+r^6, the outer first stage at 8 |G7 - I5|). Rule applications are capped per texel (``max_rules_outer``,
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
 reports its large estimate instead of a wrong small one.
 
@@ -80,7 +83,9 @@ Where the pieces live: the integrand, the mirror limit, the mass bound and the b
 thresholds in :mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the
 D cos CDF v(theta_m) and its inverse in :mod:`bsdf_tab.model`; the G7-K15 and I5 constants, the
 error models and the global bisection (both levels) in :mod:`bsdf_tab.integrate.quadrature`.
-This module holds the two rules, the breakpoints, the kernel and its launcher.
+The inner phi level (its cuts, end maps and two-stage rule) is :mod:`bsdf_tab.integrate.inner`,
+the outer level's start and piece map :mod:`bsdf_tab.integrate.outer`; this module holds the
+outer rule, the kernel and its launcher.
 
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
 Piessens et al. 1983, "QUADPACK" (Gauss-Kronrod 7-15 rule).
@@ -94,182 +99,26 @@ import numpy as np
 import warp as wp
 
 from ..model.distribution import dcos_tan_of_v
+from .inner import inner_integral
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
-    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, insert_sorted, integrand_phi,
-    mass_bound, phi_of_c, tir_eta, mode_id,
+    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, mass_bound, mode_id,
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
-from .quadrature import WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, end_map, first_stage, vec16d, gk_error, gk_error_decay, make_global_bisection
+from .quadrature import (
+    WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, gk_error, gk_error_decay, make_global_bisection,
+    vec16d,
+)
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-_vec6d = wp.types.vector(length=6, dtype=wp.float64)
-_vec8d = wp.types.vector(length=8, dtype=wp.float64)
 _vec16d = vec16d
 
 _PI = wp.constant(wp.float64(math.pi))
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
-
-
-@wp.func
-def _phi_node(p: TexelParams, x: _vec8d, ctr: wp.float64, hl: wp.float64, j: wp.int32):
-    # the integrand at node j (j < 8: +XGK[j], else -XGK[j - 8]) of [ctr - hl, ctr + hl] in t,
-    # through the piece's end map (x[6]: which ends are mapped, end_map)
-    jj = j
-    sgn = wp.float64(1.0)
-    if j >= 8:
-        jj = j - 8
-        sgn = wp.float64(-1.0)
-    s, ds = end_map(ctr + sgn * hl * XGK_D[jj], int(x[6]))
-    return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
-
-
-@wp.func
-def _gk_phi(p: TexelParams, x: _vec8d, ta: wp.float64, tb: wp.float64):
-    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
-    thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
-    error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
-    :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; else K15."""
-    half = wp.float64(0.5)
-    ctr = half * (ta + tb)
-    hl = half * (tb - ta)
-    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    f0 = _vec16d()
-    f1 = _vec16d()
-    for j in range(15):
-        if j % 2 == 1:
-            f = _phi_node(p, x, ctr, hl, j)
-            f0[j] = f[0]
-            f1[j] = f[1]
-    if p.inner_first > 0:
-        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
-        # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
-        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
-            return g, d, int(7)
-    for j in range(15):
-        if j % 2 == 0:
-            f = _phi_node(p, x, ctr, hl, j)
-            f0[j] = f[0]
-            f1[j] = f[1]
-    for j in range(15):
-        jj = j
-        if j >= 8:
-            jj = j - 8
-        f = wp.vec2d(f0[j], f1[j])
-        rk += WGK_D[jj] * f
-        rg += WG7_D[jj] * f
-    if p.err_model_inner == 2:
-        # a channel with K15 = G7 has the error 0 whatever its decay ratio (reflection's
-        # channel 1 is always 0): its 90 Legendre products are not formed
-        r = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-        if rk[0] * hl != rg[0] * hl:
-            r[0] = decay_ratio(f0)
-        if rk[1] * hl != rg[1] * hl:
-            r[1] = decay_ratio(f1)
-        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
-    mean = rk * half
-    resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for j in range(15):
-        jj = j
-        if j >= 8:
-            jj = j - 8
-        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
-    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
-
-
-# globally adaptive G7-K15 over one phi piece (t in [0, 1]): bisect the worst interval until the
-# summed error of both channels is below the piece's share of the inner tolerance
-_adaptive_piece = make_global_bisection(_gk_phi)
-
-
-@wp.func
-def _inner(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
-           max_rules: wp.int32):
-    """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
-    zero = wp.float64(0.0)
-    one = wp.float64(1.0)
-    pi = _PI
-    total = wp.vec2d(zero, zero)
-    err = wp.vec2d(zero, zero)
-    ss = p.sin_i * sm
-    if ss <= wp.float64(1.0e-300):
-        # i.m does not depend on phi (normal incidence or m = n): constant integrand
-        f = integrand_phi(p, cm, sm, tm, wp.float64(0.5) * pi)
-        return f * pi, err, int(1), int(0)  # one evaluation
-    c_min = p.mu * cm - ss
-    c_max = p.mu * cm + ss
-    cuts = _vec6d()
-    nc = int(0)
-    cands = _vec6d()
-    ncand = int(0)
-    cands[0] = zero
-    cands[1] = p.mu / (wp.float64(2.0) * cm)
-    ncand = 2
-    # lowest i.m where transmission exists (eta < 1): c_TIR, or the transmission horizon c_t
-    # where (c/eta - sqrt(k2)) cos(theta_m) = mu/eta (that root is valid only if c_t >= mu/cm)
-    t_floor = zero
-    if p.mode == MODE_DIELECTRIC and p.eta < one:
-        e2 = one - p.eta * p.eta
-        cands[2] = wp.sqrt(e2)
-        ncand = 3
-        t_floor = cands[2]
-        if p.mu > zero:
-            c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
-            if c_t * cm >= p.mu:
-                cands[3] = c_t
-                ncand = 4
-                t_floor = c_t
-        else:
-            # grazing from inside: o_t.n = (c/eta - sqrt(k2)) cos(theta_m) > 0, never transmitted
-            t_floor = wp.float64(2.0)
-    elif tir_eta(p) < one:
-        # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
-        cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
-        ncand = 3
-    phi_crit = wp.float64(-1.0)
-    for q in range(ncand):
-        cb = cands[q]
-        if cb > c_min and cb < c_max:
-            phc = phi_of_c(cb, p, cm, sm)
-            if q == 2:
-                phi_crit = phc
-            cuts = insert_sorted(cuts, nc, phc)
-            nc += 1
-    # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
-    # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
-    c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(cands[1], t_floor), cands[1])
-    a = zero
-    rules = int(0)
-    rules_ref = int(0)
-    for q in range(nc + 1):
-        b = pi
-        if q < nc:
-            b = cuts[q]
-        if p.mu * cm + ss * wp.cos(a) <= c_floor + wp.float64(1.0e-12):
-            # i.m falls as phi grows: this piece and all later ones are empty (1e-12: a cut's
-            # rounding leaves i.m(a) just above c_floor, and then a piece of zeros)
-            break
-        if b > a:
-            tp = tol * (b - a) / pi
-            # the ends to map (end_map): every end (inner_map 0), the cuts (1), the critical cut (2)
-            ends = 3
-            if p.inner_map == 1:
-                ends = wp.where(a > zero, 1, 0) + wp.where(q < nc, 2, 0)
-            elif p.inner_map == 2:
-                ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
-            r, e, used, used_ref = _adaptive_piece(p, _vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero),
-                                                   wp.vec2d(zero, one), 1, tp, max_rules, int(0))
-            total += r
-            err += e
-            rules += used
-            rules_ref += used_ref
-        a = b
-    return total, err, rules, rules_ref
 
 
 @wp.func
@@ -289,7 +138,7 @@ def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.in
     sm = tm * cm
     jac = wp.float64(2.0) * (one - v)
     # the inner budget per unit v as before the map (its sum over the v range is tol_in)
-    f, e, used, used_ref = _inner(p, cm, sm, tm, x.tol_in / (jac * x.carry), x.max_rules)
+    f, e, used, used_ref = inner_integral(p, cm, sm, tm, x.tol_in / (jac * x.carry), x.max_rules)
     jac = jac * dvdw
     return f * jac, e * (jac * x.carry), wp.vec2i(used, used_ref)
 
@@ -522,8 +371,13 @@ def integrate_texels(
         inner first stage (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always, before issue 14's round 4);
         ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (8): its factor.
         ``outer_map`` (True): the outer rules through the smoothstep map of their initial piece
-        (False: linear, the method before issue 14's sixth round); ``inner_carry`` (4): the
-        factor on the inner estimates in the texel's error (the inner tolerance divided by it).
+        (False: linear, the method before issue 14's sixth round); ``inner_carry`` (2; 4 in the
+        sixth round): the factor on the inner estimates in the texel's error (the inner
+        tolerance divided by it). ``outer_first`` (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always,
+        before issue 14's seventh round) and ``outer_first_safety`` (32): the outer first stage.
+        ``inner_map``: which ends of an inner phi piece are mapped (None: 2 at tolerances >=
+        1e-3, 1 below; 0: every end by the smoothstep, before the seventh round; 1: each cut on
+        i.m; 2: the critical-angle cut only).
 
     Returns
     -------

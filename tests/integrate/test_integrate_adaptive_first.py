@@ -37,6 +37,7 @@ import warp as wp
 from scipy.integrate import quad
 
 from bsdf_tab.integrate import adaptive, integrate_texels
+from bsdf_tab.integrate.inner import inner_integral
 from bsdf_tab.integrate.integrand import MODE_DIELECTRIC, MODE_REFLECT, integrand_phi, make_texel
 from bsdf_tab.integrate.quadrature import GK_X, WG7, WI3, WI5, XGK, first_stage, vec16d
 from tests.reference import microfacet_ref as ref
@@ -248,7 +249,7 @@ def _inner_kernel(mode: wp.int32, dist: wp.int32, shad: wp.int32, ftype: wp.int3
     p.first_safety = safety
     cm = wp.cos(theta)
     sm = wp.sin(theta)
-    r, e, used, used_ref = adaptive._inner(p, cm, sm, sm / cm, tol, 50)
+    r, e, used, used_ref = inner_integral(p, cm, sm, sm / cm, tol, 50)
     out[0] = r[0]
     out[1] = r[1]
     out[2] = e[0]

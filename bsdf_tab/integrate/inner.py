@@ -1,0 +1,187 @@
+"""The adaptive method's inner level: the integral over phi at one micro-normal angle theta_m.
+
+For fixed theta_m, i.m = sin(theta_i) sin(theta_m) cos(phi) + mu cos(theta_m) is monotone in phi
+on [0, pi], and every boundary of the integrand is a threshold on i.m with a closed form (the
+reflection horizon, i.m = 0, the critical angle of an eta < 1 Fresnel, the transmission
+horizon). :func:`inner_integral` splits [0, pi] at those cuts, drops the pieces where every
+channel vanishes, maps each piece at the ends that need it (``p.inner_map``,
+:func:`bsdf_tab.integrate.quadrature.end_map`) and integrates it by globally adaptive G7-K15
+as a two-stage rule (:func:`gk_phi`). :mod:`bsdf_tab.integrate.adaptive` has the method's
+account of the estimates and the measurements behind them; this module is its inner half, as
+:mod:`bsdf_tab.integrate.outer` is the start of its outer one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import warp as wp
+
+from .integrand import MODE_DIELECTRIC, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
+from .quadrature import (
+    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, first_stage, gk_error, gk_error_decay, make_global_bisection, vec16d,
+)
+
+# no kernel of this module is differentiated: no adjoint code
+wp.set_module_options({"enable_backward": False})
+
+vec6d = wp.types.vector(length=6, dtype=wp.float64)
+vec8d = wp.types.vector(length=8, dtype=wp.float64)
+_PI = wp.constant(wp.float64(math.pi))
+
+
+@wp.func
+def _phi_node(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, j: wp.int32):
+    # the integrand at node j (j < 8: +XGK[j], else -XGK[j - 8]) of [ctr - hl, ctr + hl] in t,
+    # through the piece's end map (x[6]: which ends are mapped, end_map)
+    jj = j
+    sgn = wp.float64(1.0)
+    if j >= 8:
+        jj = j - 8
+        sgn = wp.float64(-1.0)
+    s, ds = end_map(ctr + sgn * hl * XGK_D[jj], int(x[6]))
+    return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
+
+
+@wp.func
+def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
+    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
+    thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
+    error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
+    :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; else K15."""
+    half = wp.float64(0.5)
+    ctr = half * (ta + tb)
+    hl = half * (tb - ta)
+    rk = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    f0 = vec16d()
+    f1 = vec16d()
+    for j in range(15):
+        if j % 2 == 1:
+            f = _phi_node(p, x, ctr, hl, j)
+            f0[j] = f[0]
+            f1[j] = f[1]
+    if p.inner_first > 0:
+        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
+        # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
+        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
+            return g, d, int(7)
+    for j in range(15):
+        if j % 2 == 0:
+            f = _phi_node(p, x, ctr, hl, j)
+            f0[j] = f[0]
+            f1[j] = f[1]
+    for j in range(15):
+        jj = j
+        if j >= 8:
+            jj = j - 8
+        f = wp.vec2d(f0[j], f1[j])
+        rk += WGK_D[jj] * f
+        rg += WG7_D[jj] * f
+    if p.err_model_inner == 2:
+        # a channel with K15 = G7 has the error 0 whatever its decay ratio (reflection's
+        # channel 1 is always 0): its 90 Legendre products are not formed
+        r = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+        if rk[0] * hl != rg[0] * hl:
+            r[0] = decay_ratio(f0)
+        if rk[1] * hl != rg[1] * hl:
+            r[1] = decay_ratio(f1)
+        return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
+    mean = rk * half
+    resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        jj = j
+        if j >= 8:
+            jj = j - 8
+        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
+
+
+# globally adaptive G7-K15 over one phi piece (t in [0, 1]): bisect the worst interval until the
+# summed error of both channels is below the piece's share of the inner tolerance
+_adaptive_piece = make_global_bisection(gk_phi)
+
+
+@wp.func
+def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
+           max_rules: wp.int32):
+    """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    pi = _PI
+    total = wp.vec2d(zero, zero)
+    err = wp.vec2d(zero, zero)
+    ss = p.sin_i * sm
+    if ss <= wp.float64(1.0e-300):
+        # i.m does not depend on phi (normal incidence or m = n): constant integrand
+        f = integrand_phi(p, cm, sm, tm, wp.float64(0.5) * pi)
+        return f * pi, err, int(1), int(0)  # one evaluation
+    c_min = p.mu * cm - ss
+    c_max = p.mu * cm + ss
+    cuts = vec6d()
+    nc = int(0)
+    cands = vec6d()
+    ncand = int(0)
+    cands[0] = zero
+    cands[1] = p.mu / (wp.float64(2.0) * cm)
+    ncand = 2
+    # lowest i.m where transmission exists (eta < 1): c_TIR, or the transmission horizon c_t
+    # where (c/eta - sqrt(k2)) cos(theta_m) = mu/eta (that root is valid only if c_t >= mu/cm)
+    t_floor = zero
+    if p.mode == MODE_DIELECTRIC and p.eta < one:
+        e2 = one - p.eta * p.eta
+        cands[2] = wp.sqrt(e2)
+        ncand = 3
+        t_floor = cands[2]
+        if p.mu > zero:
+            c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
+            if c_t * cm >= p.mu:
+                cands[3] = c_t
+                ncand = 4
+                t_floor = c_t
+        else:
+            # grazing from inside: o_t.n = (c/eta - sqrt(k2)) cos(theta_m) > 0, never transmitted
+            t_floor = wp.float64(2.0)
+    elif tir_eta(p) < one:
+        # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
+        cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
+        ncand = 3
+    phi_crit = wp.float64(-1.0)
+    for q in range(ncand):
+        cb = cands[q]
+        if cb > c_min and cb < c_max:
+            phc = phi_of_c(cb, p, cm, sm)
+            if q == 2:
+                phi_crit = phc
+            cuts = insert_sorted(cuts, nc, phc)
+            nc += 1
+    # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
+    # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
+    c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(cands[1], t_floor), cands[1])
+    a = zero
+    rules = int(0)
+    rules_ref = int(0)
+    for q in range(nc + 1):
+        b = pi
+        if q < nc:
+            b = cuts[q]
+        if p.mu * cm + ss * wp.cos(a) <= c_floor + wp.float64(1.0e-12):
+            # i.m falls as phi grows: this piece and all later ones are empty (1e-12: a cut's
+            # rounding leaves i.m(a) just above c_floor, and then a piece of zeros)
+            break
+        if b > a:
+            tp = tol * (b - a) / pi
+            # the ends to map (end_map): every end (inner_map 0), the cuts (1), the critical cut (2)
+            ends = 3
+            if p.inner_map == 1:
+                ends = wp.where(a > zero, 1, 0) + wp.where(q < nc, 2, 0)
+            elif p.inner_map == 2:
+                ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
+            r, e, used, used_ref = _adaptive_piece(p, vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero),
+                                                   wp.vec2d(zero, one), 1, tp, max_rules, int(0))
+            total += r
+            err += e
+            rules += used
+            rules_ref += used_ref
+        a = b
+    return total, err, rules, rules_ref
