@@ -105,8 +105,8 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, gk_error, gk_error_decay, make_global_bisection,
-    vec16d,
+    WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, gk_error, gk_error_decay, gk_resasc,
+    make_global_bisection, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
@@ -189,13 +189,7 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
         eg += WG7_D[j % 8] * e
     if accepted != 0:
         return g, d, rules
-    mean = rk * half
-    resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for j in range(15):
-        jj = j
-        if j >= 8:
-            jj = j - 8
-        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    resasc = gk_resasc(f0, f1, rk)
     est = gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl
     if p.err_model == 2:
         r = wp.vec2d(decay_ratio(f0), decay_ratio(f1))
@@ -432,9 +426,10 @@ def integrate_texels(
     launch = chunk_launcher(texel_kernel, [
         mu_w, alpha_w, eta_w, mode_sel, int(dist), int(shadowing), int(ftype),
         float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
-        float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power), float(max_dtheta),
-        err_floor,
-        float(bound_share), int(inner_first), float(first_share), float(first_safety), int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), int(inner_map), value, error, cost, detail,
+        float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power),
+        float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
+        int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), int(inner_map),
+        value, error, cost, detail,
     ], dev)
 
     # interleave the texels so that expensive ones (grazing mu) spread over the workers

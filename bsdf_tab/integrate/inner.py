@@ -19,7 +19,8 @@ import warp as wp
 
 from .integrand import MODE_DIELECTRIC, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
 from .quadrature import (
-    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, first_stage, gk_error, gk_error_decay, make_global_bisection, vec16d,
+    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, first_stage, gk_error, gk_error_decay, gk_resasc,
+    make_global_bisection, vec16d,
 )
 
 # no kernel of this module is differentiated: no adjoint code
@@ -45,8 +46,9 @@ def _phi_node(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, j: wp.i
 
 @wp.func
 def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
-    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a)(3t^2 - 2t^3), x = (cm, sm, tm, a, b,
-    thr) (cos, sin, tan of theta_m, the piece, its first-stage tolerance per unit t). Returns (K,
+    """G7-K15 over t in [ta, tb] for the piece phi = a + (b - a) s(t), s the piece's end map
+    (:func:`end_map`, ends x[6]), x = (cm, sm, tm, a, b, thr, ends, -) (cos, sin, tan of theta_m,
+    the piece, its first-stage tolerance per unit t, which ends are mapped). Returns (K,
     error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
     :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; else K15."""
     half = wp.float64(0.5)
@@ -87,13 +89,7 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
         if rk[1] * hl != rg[1] * hl:
             r[1] = decay_ratio(f1)
         return rk * hl, gk_error_decay(rk * hl, rg * hl, r, p.err_safety, p.err_power), int(15)
-    mean = rk * half
-    resasc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    for j in range(15):
-        jj = j
-        if j >= 8:
-            jj = j - 8
-        resasc += WGK_D[jj] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    resasc = gk_resasc(f0, f1, rk)
     return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
 
 
@@ -177,8 +173,8 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
                 ends = wp.where(a > zero, 1, 0) + wp.where(q < nc, 2, 0)
             elif p.inner_map == 2:
                 ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
-            r, e, used, used_ref = _adaptive_piece(p, vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero),
-                                                   wp.vec2d(zero, one), 1, tp, max_rules, int(0))
+            x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero)
+            r, e, used, used_ref = _adaptive_piece(p, x, wp.vec2d(zero, one), 1, tp, max_rules, int(0))
             total += r
             err += e
             rules += used

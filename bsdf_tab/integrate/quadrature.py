@@ -226,6 +226,17 @@ def gk_error(rk: wp.vec2d, rg: wp.vec2d, resasc: wp.vec2d, err_model: wp.int32):
     return out
 
 
+@wp.func
+def gk_resasc(f0: vec16d, f1: vec16d, rk: wp.vec2d):
+    """QUADPACK's resasc per channel, before the half length: sum WGK |f - K15 / 2| over the 15
+    values (nodes in the device loops' order), rk the K15 weighted sum of the values."""
+    mean = rk * wp.float64(0.5)
+    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        out += WGK_D[j % 8] * wp.vec2d(wp.abs(f0[j] - mean[0]), wp.abs(f1[j] - mean[1]))
+    return out
+
+
 def make_global_bisection(rule):
     """A ``@wp.func`` ``bisect(p, x, ends, ne, tol, max_rules, cost0)``: global adaptivity with ``rule``.
 
