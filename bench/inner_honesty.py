@@ -127,8 +127,8 @@ def main(argv=None, prog=None) -> int:
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--samples", type=_samples, default=6000, help="inner integrals per family")
     ap.add_argument("--safety", type=_safeties, default="1,4", help="first_safety values, comma-separated (4 is the default)")
-    ap.add_argument("--inner-map", type=int, choices=(0, 1, 2, 3), default=3,
-                    help="the pieces' end map (adaptive.integrate_texels' inner_map; 3, the default below 1e-3)")
+    ap.add_argument("--inner-map", type=int, choices=(0, 1, 2), default=1,
+                    help="the pieces' end map (adaptive.integrate_texels' inner_map; 1, the default below 1e-3)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "out" / "inner_honesty.json"))
     args = ap.parse_args(argv)
     safeties = args.safety

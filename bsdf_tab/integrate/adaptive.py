@@ -406,13 +406,11 @@ def integrate_texels(
         max_dtheta = math.pi / 8 if tol >= 5e-7 else math.pi / 16
     if inner_map is None:
         # the inner pieces' ends mapped (issue 14 round 7): the critical cut only at tolerances
-        # >= 1e-3 (-14% evaluations at 1e-3 against the smoothstep at every end), every cut below,
-        # the reflection horizon graded at the G1(o) ramp's scale (-28 .. -42% at 1e-4 .. 1e-7),
-        # never phi = 0 or pi
-        inner_map = 2 if tol >= 1e-3 else 3
-    if isinstance(inner_map, bool) or inner_map not in (0, 1, 2, 3):
-        raise ValueError(f"inner_map must be 0 (every end), 1 (the cuts), 2 (the critical cut) or 3 (the cuts, the "
-                         f"reflection horizon graded), got {inner_map!r}")
+        # >= 1e-3 (-14% evaluations at 1e-3 against the smoothstep at every end), every cut below
+        # (-20 .. -27% at 1e-4 .. 1e-7), never phi = 0 or pi
+        inner_map = 2 if tol >= 1e-3 else 1
+    if isinstance(inner_map, bool) or inner_map not in (0, 1, 2):
+        raise ValueError(f"inner_map must be 0 (every end), 1 (the cuts) or 2 (the critical cut), got {inner_map!r}")
     if bound_share is None:
         # D tails left out at tolerances >= 1e-4 (-4 .. -9% evaluations there; ~1% below, where
         # a missing tail of up to tol / 4 would only move values that are otherwise ~exact)

@@ -19,8 +19,8 @@ import warp as wp
 
 from .integrand import MODE_DIELECTRIC, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
 from .quadrature import (
-    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, exp_end_map, first_stage, gk_error, gk_error_decay,
-    gk_resasc, make_global_bisection, vec16d,
+    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, first_stage, gk_error, gk_error_decay, gk_resasc,
+    make_global_bisection, vec16d,
 )
 
 # no kernel of this module is differentiated: no adjoint code
@@ -40,11 +40,7 @@ def _phi_node(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, j: wp.i
     if j >= 8:
         jj = j - 8
         sgn = wp.float64(-1.0)
-    t = ctr + sgn * hl * XGK_D[jj]
-    s, ds = end_map(t, int(x[6]))
-    if x[7] > wp.float64(0.0):
-        # the end graded at the G1(o) ramp's scale (inner_map 3)
-        s, ds = exp_end_map(t, x[7])
+    s, ds = end_map(ctr + sgn * hl * XGK_D[jj], int(x[6]))
     return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
 
 
@@ -103,23 +99,6 @@ _adaptive_piece = make_global_bisection(gk_phi)
 
 
 @wp.func
-def _ramp_kappa(p: TexelParams, cm: wp.float64, ss: wp.float64, a: wp.float64, b: wp.float64):
-    """exp_end_map's kappa for a piece [a, b] that ends at the reflection horizon phi_h = b, or 0.
-
-    G1(o) ramps from 0 over z_o ~ alpha, z_o = 2 (i.m) cos theta_m - mu, i.m = mu cos theta_m +
-    ss cos phi: over ~alpha / (2 cos theta_m ss sin b) in phi, a share w of the piece; kappa =
-    -ln w spreads it over ~1 / kappa of the rule. 0 (the quadratic map) where the ramp is not
-    narrow (w >= 0.9) or where phi_h is within 0.05 of 0 or pi (i.m is flat in phi there)."""
-    sb = wp.sin(b)
-    if sb <= wp.float64(0.05):
-        return wp.float64(0.0)
-    w = p.alpha / (wp.float64(2.0) * cm * ss * sb * (b - a))  # cm, ss, sb, b - a > 0 here
-    if w >= wp.float64(0.9):
-        return wp.float64(0.0)
-    return -wp.log(w)
-
-
-@wp.func
 def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
            max_rules: wp.int32):
     """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
@@ -164,15 +143,12 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
         cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
         ncand = 3
     phi_crit = wp.float64(-1.0)
-    phi_h = wp.float64(-1.0)
     for q in range(ncand):
         cb = cands[q]
         if cb > c_min and cb < c_max:
             phc = phi_of_c(cb, p, cm, sm)
             if q == 2:
                 phi_crit = phc
-            if q == 1:
-                phi_h = phc
             cuts = insert_sorted(cuts, nc, phc)
             nc += 1
     # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
@@ -191,18 +167,13 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
             break
         if b > a:
             tp = tol * (b - a) / pi
-            # the ends to map (end_map): every end (inner_map 0), the cuts (1, 3), the critical cut (2)
+            # the ends to map (end_map): every end (inner_map 0), the cuts (1), the critical cut (2)
             ends = 3
-            if p.inner_map == 1 or p.inner_map == 3:
+            if p.inner_map == 1:
                 ends = wp.where(a > zero, 1, 0) + wp.where(q < nc, 2, 0)
             elif p.inner_map == 2:
                 ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
-            kap = zero
-            if p.inner_map == 3 and ends == 2 and b == phi_h:
-                kap = _ramp_kappa(p, cm, ss, a, b)
-                if kap > zero:
-                    ends = 0
-            x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), kap)
+            x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero)
             r, e, used, used_ref = _adaptive_piece(p, x, wp.vec2d(zero, one), 1, tp, max_rules, int(0))
             total += r
             err += e

@@ -190,23 +190,6 @@ def end_map(t: wp.float64, ends: wp.int32):
     return t, one
 
 
-@wp.func
-def exp_end_map(t: wp.float64, kappa: wp.float64):
-    """(s, ds/dt): s = 1 - (exp(kappa u) - 1) / (exp(kappa) - 1), u = 1 - t, for kappa >= 0.1.
-
-    Grades the end t = 1 geometrically: near it s is linear with slope kappa / (exp(kappa) - 1),
-    so a feature of relative width w = exp(-kappa) next to the end (the G1(o) ramp beside the
-    reflection horizon, ~alpha wide in z_o) spreads over u ~ 1 / kappa of the rule instead of
-    u ~ sqrt(w) under s = 1 - u^2 (issue 14, seventh round). The end stays unflattened (ds > 0):
-    for an integrand that falls to 0 linearly there, not for a square root."""
-    one = wp.float64(1.0)
-    # kappa >= 0.1: exp - 1 loses at most ~1e-15 relative; s(0) = 0 and s(1) = 1 exactly (eu at
-    # t = 0 is den's exp), and ds is the exact derivative of the s computed with this den
-    den = wp.exp(kappa) - one
-    eu = wp.exp(kappa * (one - t))
-    return one - (eu - one) / den, kappa * eu / den
-
-
 def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power) -> None:
     """The inner error estimates' keywords, validated: the two-stage rule's ``inner_first`` 0
     (off), 5 (I5) or 3 (I3), ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1

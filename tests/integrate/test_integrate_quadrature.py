@@ -18,7 +18,6 @@ from bsdf_tab.integrate.quadrature import (
     XGK_D,
     decay_ratio,
     end_map,
-    exp_end_map,
     gk_error,
     gk_error_decay,
     make_global_bisection,
@@ -262,28 +261,3 @@ def test_end_map_flattens_only_the_mapped_ends(ends):
     if ends & 1:
         ratio = np.sqrt(s[1:11]) / t[1:11]  # sqrt(s) ~ c t near a mapped start
         assert ratio.max() / ratio.min() < 1.05
-
-
-@wp.kernel
-def _exp_map_kernel(kappa: wp.float64, t: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
-    k = wp.tid()
-    s, d = exp_end_map(t[k], kappa)
-    out[k, 0] = s
-    out[k, 1] = d
-
-
-@pytest.mark.parametrize("kappa", [0.1, 1.0, 4.0, 12.0])
-def test_exp_end_map_grades_the_end(kappa):
-    t = np.linspace(0.0, 1.0, 2001)
-    out = wp.zeros((t.size, 2), dtype=wp.float64, device="cpu")
-    wp.launch(_exp_map_kernel, dim=t.size, inputs=[kappa, wp.array(t, dtype=wp.float64, device="cpu"), out],
-              device="cpu")
-    s, d = out.numpy().T
-    # the closed form, written apart: s = 1 - expm1(kappa (1 - t)) / expm1(kappa) (exp - 1 loses
-    # ~1e-15 relative at kappa 0.1; s(0) = 0 and s(1) = 1 hold exactly, ds is its derivative)
-    np.testing.assert_allclose(s, 1.0 - np.expm1(kappa * (1.0 - t)) / np.expm1(kappa), rtol=0, atol=1e-14)
-    np.testing.assert_allclose(d, kappa * np.exp(kappa * (1.0 - t)) / np.expm1(kappa), rtol=1e-14)
-    assert s[0] == 0.0 and s[-1] == 1.0 and (np.diff(s) > 0).all()
-    # the end is graded: the last 1/kappa of t covers a share ~ (e - 1) / (e^kappa - 1) of s, and
-    # the slope there is kappa / (e^kappa - 1), not 0 (a linear end stays linear)
-    assert d[-1] == pytest.approx(kappa / np.expm1(kappa), rel=1e-14) and d[-1] > 0.0
