@@ -143,6 +143,8 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
         cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
         ncand = 3
     phi_crit = wp.float64(-1.0)
+    # the cuts' i.m, in the same order (i.m falls as phi grows): -i.m sorted with them
+    cuts_c = vec6d()
     for q in range(ncand):
         cb = cands[q]
         if cb > c_min and cb < c_max:
@@ -150,20 +152,22 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
             if q == 2:
                 phi_crit = phc
             cuts = insert_sorted(cuts, nc, phc)
+            cuts_c = insert_sorted(cuts_c, nc, -cb)
             nc += 1
     # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
     # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
     c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(cands[1], t_floor), cands[1])
     a = zero
+    c_a = c_max  # i.m at the piece's start a (the cut's own value: no cos(acos(.)) round trip)
     rules = int(0)
     rules_ref = int(0)
     for q in range(nc + 1):
         b = pi
         if q < nc:
             b = cuts[q]
-        if p.mu * cm + ss * wp.cos(a) <= c_floor + wp.float64(1.0e-12):
-            # i.m falls as phi grows: this piece and all later ones are empty (1e-12: a cut's
-            # rounding leaves i.m(a) just above c_floor, and then a piece of zeros)
+        if c_a <= c_floor + wp.float64(1.0e-12):
+            # i.m falls as phi grows: this piece and all later ones are empty (1e-12: as when
+            # i.m(a) was recomputed from the rounded cut a)
             break
         if b > a:
             tp = tol * (b - a) / pi
@@ -180,4 +184,6 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
             rules += used
             rules_ref += used_ref
         a = b
+        if q < nc:
+            c_a = -cuts_c[q]
     return total, err, rules, rules_ref
