@@ -101,12 +101,12 @@ import warp as wp
 from ..model.distribution import dcos_tan_of_v
 from .inner import inner_integral
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
-    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, TexelParams, begin_texel, mass_bound, mode_id,
+    MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, PI64, TexelParams, begin_texel, mass_bound, mode_id,
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    WG7_D, WGK_D, XGK_D, check_rule_keywords, decay_ratio, first_stage, gk_error, gk_error_decay, gk_resasc,
-    make_global_bisection, vec16d,
+    WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_stage, gk_abscissa, gk_error, gk_error_decay,
+    gk_resasc, make_global_bisection, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
@@ -115,7 +115,6 @@ wp.set_module_options({"enable_backward": False})
 
 _vec16d = vec16d
 
-_PI = wp.constant(wp.float64(math.pi))
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
@@ -127,12 +126,7 @@ def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.in
     integral times the Jacobian 2 (1 - v) dv/dw, its estimate times the same and ``x.carry``,
     and the inner rule counts (applications, of which bisections)."""
     one = wp.float64(1.0)
-    jj = j
-    sgn = one
-    if j >= 8:
-        jj = j - 8
-        sgn = -one
-    v, dvdw = v_of_w(x, ctr + sgn * hl * XGK_D[jj])
+    v, dvdw = v_of_w(x, gk_abscissa(ctr, hl, j))
     tm = dcos_tan_of_v(v, p.alpha, p.dist)
     cm = one / wp.sqrt(one + tm * tm)
     sm = tm * cm
@@ -266,7 +260,7 @@ def texel_kernel(
     # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
     # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
     # most tol_in in total), the rest for the outer v quadrature
-    tol_total = tol * _PI
+    tol_total = tol * PI64
     ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share)
     tol_in = inner_share * (tol_total - skip)
 
@@ -288,11 +282,11 @@ def texel_kernel(
     total, err, rules, rules_ref = _adaptive_outer(p, ox, wends, ne,
                                                    tol_total - skip, max_rules_outer, wp.vec2i(0, 0))
     err += wp.vec2d(skip, skip)
-    value[i, 0] = total[0] / _PI
-    value[i, 1] = total[1] / _PI
+    value[i, 0] = total[0] / PI64
+    value[i, 1] = total[1] / PI64
     # floor (err_floor, see integrate_texels): what the estimates cannot certify
-    error[i, 0] = wp.max(err[0] / _PI, err_floor)
-    error[i, 1] = wp.max(err[1] / _PI, err_floor)
+    error[i, 0] = wp.max(err[0] / PI64, err_floor)
+    error[i, 1] = wp.max(err[1] / PI64, err_floor)
     # integrand evaluations (the inner rules count theirs: 15 or 7 per application, 1 for a
     # phi-independent integrand)
     cost[i] = rules[0]

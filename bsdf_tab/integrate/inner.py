@@ -13,34 +13,25 @@ account of the estimates and the measurements behind them; this module is its in
 
 from __future__ import annotations
 
-import math
-
 import warp as wp
 
-from .integrand import MODE_DIELECTRIC, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
+from .integrand import MODE_DIELECTRIC, PI64, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
 from .quadrature import (
-    WG7_D, WGK_D, XGK_D, decay_ratio, end_map, first_stage, gk_error, gk_error_decay, gk_resasc,
-    make_global_bisection, vec16d,
+    WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
+    make_global_bisection, vec8d, vec16d,
 )
 
 # no kernel of this module is differentiated: no adjoint code
 wp.set_module_options({"enable_backward": False})
 
 vec6d = wp.types.vector(length=6, dtype=wp.float64)
-vec8d = wp.types.vector(length=8, dtype=wp.float64)
-_PI = wp.constant(wp.float64(math.pi))
 
 
 @wp.func
 def _phi_node(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, j: wp.int32):
     # the integrand at node j (j < 8: +XGK[j], else -XGK[j - 8]) of [ctr - hl, ctr + hl] in t,
     # through the piece's end map (x[6]: which ends are mapped, end_map)
-    jj = j
-    sgn = wp.float64(1.0)
-    if j >= 8:
-        jj = j - 8
-        sgn = wp.float64(-1.0)
-    s, ds = end_map(ctr + sgn * hl * XGK_D[jj], int(x[6]))
+    s, ds = end_map(gk_abscissa(ctr, hl, j), int(x[6]))
     return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
 
 
@@ -100,11 +91,11 @@ _adaptive_piece = make_global_bisection(gk_phi)
 
 @wp.func
 def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, tol: wp.float64,
-           max_rules: wp.int32):
+                   max_rules: wp.int32):
     """int_0^pi of the integrand over phi, split at the closed-form thresholds on i.m."""
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
-    pi = _PI
+    pi = PI64
     total = wp.vec2d(zero, zero)
     err = wp.vec2d(zero, zero)
     ss = p.sin_i * sm

@@ -85,6 +85,15 @@ LEG14_D = wp.constant(vec16d(*(LEG_TAIL[5].tolist() + [0.0])))
 
 
 @wp.func
+def gk_abscissa(ctr: wp.float64, hl: wp.float64, j: wp.int32):
+    """Node j of the 15 on [ctr - hl, ctr + hl] in the device loops' order (GK_X): j < 8 at
+    ctr + hl XGK[j], the others at ctr - hl XGK[j - 8]."""
+    if j >= 8:
+        return ctr - hl * XGK_D[j - 8]
+    return ctr + hl * XGK_D[j]
+
+
+@wp.func
 def decay_ratio(f: vec16d):
     """How fast the Legendre coefficients of the 15-node interpolant of ``f`` (values at the
     nodes in GK_X order) fall over their last six degrees: r = max(A / B, B / C) with
