@@ -38,7 +38,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bsdf_tab  # noqa: E402
-from bsdf_tab.integrate.runtime import default_workers  # noqa: E402
+from bsdf_tab.integrate.runtime import default_workers, resolve_device  # noqa: E402
 import numpy_baseline  # noqa: E402
 from common import parse_variants  # noqa: E402
 
@@ -63,6 +63,12 @@ CASES = [
         "dielectric",
     ),
 ]
+# --large: the table the GPU is for (262144 texels; ~1 min of 2 cores at the spec's tolerance)
+LARGE = (
+    "dielectric 64^3 eta>1",
+    {"table": "dielectric", "axes": {"mu": {"size": 64}, "alpha": {"size": 64}, "eta": {"size": 64}}},
+    "dielectric",
+)
 TARGET = 1e-6
 
 
@@ -94,13 +100,16 @@ def _kw(table, spec):
     return {k: kw[k] for k in ("dist", "shadowing", "ftype", "fp0", "fp1", "tol") if k in kw}
 
 
-def cost_report(table, spec, mode, t_warp, variants=()):
-    """Evaluation counts of one case's texels (see the module docstring)."""
+def cost_report(table, spec, mode, t_warp, variants=(), device=None, values=None):
+    """Evaluation counts of one case's texels (see the module docstring); ``values``: a dict
+    that receives the float64 values and reported errors (for ``--save-values``)."""
     from bsdf_tab.integrate.adaptive import integrate_texels
 
     mu, alpha, eta, ours = _flat(table, mode)
     kw = _kw(table, spec)
-    v, _, detail = integrate_texels(mode, mu, alpha, eta, return_cost="detail", **kw)
+    v, err, detail = integrate_texels(mode, mu, alpha, eta, return_cost="detail", device=device, **kw)
+    if values is not None:
+        values.update(v=v, err=err, evals=detail.sum(1))
     same = float(np.max(np.abs(v[:, : ours.shape[1]].astype(np.float32) - ours.astype(np.float32))))
     cost = detail.sum(1)
     total = float(cost.sum())
@@ -130,7 +139,7 @@ def cost_report(table, spec, mode, t_warp, variants=()):
         vkw = dict(kw)
         vkw.update(var)
         t0 = time.perf_counter()
-        vv, ee, dd = integrate_texels(mode, mu, alpha, eta, return_cost="detail", **vkw)
+        vv, ee, dd = integrate_texels(mode, mu, alpha, eta, return_cost="detail", device=device, **vkw)
         tv = time.perf_counter() - t0
         c2 = dd.sum(1)
         out["variants"][json.dumps(var)] = {
@@ -151,11 +160,31 @@ def _print_cost(name, c):
               f"{v['time_s']:.2f} s, max |diff| {v['max_diff_to_default']:.1e}, max err {v['max_reported_error']:.1e}")
 
 
-def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, numpy_baseline_on=True) -> dict:
+def compare_values(name, values, reference) -> dict:
+    """This run's float64 values against another run's (``--compare-values``: e.g. the GPU's
+    against the CPU's): the largest difference and whether every difference lies within the two
+    reported errors together (each run promises its value within its own error)."""
+    v, err = values["v"], values["err"]
+    v_ref, err_ref = reference[f"{name}/v"], reference[f"{name}/err"]
+    diff = np.abs(v - v_ref)
+    evals, evals_ref = values["evals"], reference[f"{name}/evals"]
+    return {
+        "max_abs_diff": float(diff.max()),
+        "texels_bit_identical": float(np.mean(np.all(v == v_ref, axis=1))),
+        "within_both_errors": float(np.mean(np.all(diff <= err + err_ref, axis=1))),
+        "evals_mean": float(evals.mean()), "evals_mean_reference": float(evals_ref.mean()),
+        "texels_same_evals": float(np.mean(evals == evals_ref)),
+    }
+
+
+def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, numpy_baseline_on=True,
+        large: bool = False, save_values=None, reference=None) -> dict:
+    t0 = time.perf_counter()
     bsdf_tab.tabulate({"table": "albedo", "axes": {"mu": [0.5], "alpha": [0.5]}}, device=device)  # compile
+    print(f"(kernels loaded or compiled in {time.perf_counter() - t0:.1f} s)", flush=True)
     sizes = (8, 16, 32) if quick else (8, 16, 24, 32, 48, 64)
-    rows = []
-    for name, spec, mode in CASES:
+    rows, saved = [], {}
+    for name, spec, mode in CASES + ([LARGE] if large else []):
         spec = json.loads(json.dumps(spec))
         if tol is not None:
             spec["tolerance"] = tol
@@ -163,10 +192,19 @@ def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, nump
         if not numpy_baseline_on:
             rows.append({"case": name, "texels": int(np.prod([len(a) for a in table.axes.values()])),
                          "warp_time_s": t_warp, "warp_max_error_estimate": max(table.max_error().values())})
+            print(f"{name:<24} {rows[-1]['texels']:>6} {t_warp:>8.3f} {rows[-1]['warp_max_error_estimate']:>10.1e}",
+                  flush=True)
             if cost:
-                rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants)
-                print(f"{name:<24} {t_warp:>8.3f} s", flush=True)
+                values = {}
+                rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants, device, values)
                 _print_cost(name, rows[-1]["cost"])
+                saved.update({f"{name}/{k}": a for k, a in values.items()})
+                if reference is not None and f"{name}/v" in reference:
+                    rows[-1]["compare"] = c = compare_values(name, values, reference)
+                    print(f"    against the reference run: max |diff| {c['max_abs_diff']:.1e}, bit-identical "
+                          f"{c['texels_bit_identical']:.1%}, within both errors {c['within_both_errors']:.1%}, "
+                          f"same evaluation count {c['texels_same_evals']:.1%} (mean {c['evals_mean']:.0f} "
+                          f"against {c['evals_mean_reference']:.0f})", flush=True)
             continue
         mu, alpha, eta, ours = _flat(table, mode)
         keep = alpha > 0  # alpha = 0 texels are closed forms for us; the baseline skips them
@@ -193,10 +231,14 @@ def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, nump
         )
         print(_row(rows[-1]), flush=True)
         if cost:
-            rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants)
+            rows[-1]["cost"] = cost_report(table, spec, mode, t_warp, variants, device)
             _print_cost(name, rows[-1]["cost"])
+    if save_values:
+        np.savez_compressed(save_values, **saved)
+    dev = resolve_device(device)
     return {
-        "machine": {"platform": platform.platform(), "cores": default_workers()},
+        "machine": {"platform": platform.platform(), "cores": default_workers(), "device": dev.alias,
+                    "device_name": dev.name},
         "target": TARGET,
         "rows": rows,
     }
@@ -219,6 +261,11 @@ def main(argv=None) -> int:
     parser.add_argument("--no-numpy", action="store_true", help="skip the NumPy baseline (counts and times only)")
     parser.add_argument("--tol", type=float, default=None, help="the tables' tolerance (default: the spec's)")
     parser.add_argument("--device", default=None, help="Warp device, e.g. cuda:0 (default: cpu)")
+    parser.add_argument("--large", action="store_true", help=f"also the case {LARGE[0]!r}")
+    parser.add_argument("--save-values", metavar="NPZ", help="with --no-numpy: write each case's float64 values, "
+                        "reported errors and evaluation counts")
+    parser.add_argument("--compare-values", metavar="NPZ", help="with --no-numpy: compare each case's values with "
+                        "those of an earlier --save-values run (e.g. the GPU's with the CPU's)")
     parser.add_argument("--variant", action="append", default=[], metavar="KEY=VALUE[,KEY=VALUE]",
                         help="also count the texels with these integrate_texels keywords")
     args = parser.parse_args(argv)
@@ -226,9 +273,13 @@ def main(argv=None) -> int:
         variants = parse_variants(args.variant)
     except ValueError as exc:
         parser.error(str(exc))
+    if (args.save_values or args.compare_values) and (not args.no_numpy or args.no_cost):
+        parser.error("--save-values and --compare-values take --no-numpy and the evaluation counts (no --no-cost)")
+    reference = dict(np.load(args.compare_values)) if args.compare_values else None
     print(f"{'case':<24} {'texels':>6} {'warp s':>8} {'max err':>10} {'numpy s':>9} {'n':>5} {'np diff':>9} {'ratio':>8}")
     result = run(args.quick, cost=not args.no_cost, variants=variants, tol=args.tol, device=args.device,
-                 numpy_baseline_on=not args.no_numpy)
+                 numpy_baseline_on=not args.no_numpy, large=args.large, save_values=args.save_values,
+                 reference=reference)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as fh:
         json.dump(result, fh, indent=2)
