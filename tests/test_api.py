@@ -83,7 +83,8 @@ def test_mirror_limit_albedo_equals_fresnel():
     )
     schlick = 0.04 + 0.96 * (1.0 - mu) ** 5
     assert np.allclose(t.channels["E"][:, 0], schlick, rtol=0, atol=1e-15)
-    assert np.all(t.channels["E_err"][:, 0] == 0.0)
+    # the closed form's error is its float64 rounding: tiny, never 0 (tests/integrate/test_integrate_mirror.py)
+    assert np.all((t.channels["E_err"][:, 0] > 0.0) & (t.channels["E_err"][:, 0] < 1e-13))
     # the deviation from the mirror limit is O(alpha^2 / mu^2) (shadowing loss, Fresnel curvature):
     # bounded here by 4 (alpha / mu)^2, plus the texel's own integration error estimate
     dev = np.abs(t.channels["E"][:, 1:] - schlick[:, None])

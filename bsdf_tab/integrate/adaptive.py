@@ -426,8 +426,10 @@ def integrate_texels(
         value, error, cost, detail,
     ], dev)
 
-    # interleave the texels so that expensive ones (grazing mu) spread over the workers
-    order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 else None
+    # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the
+    # workers; on CUDA keep the table's order: a warp's 32 threads then hold neighbouring texels,
+    # of similar cost (bench/gpu_launch.py)
+    order = np.argsort(np.arange(n) % 7, kind="stable") if n > 64 and not dev.is_cuda else None
     run_chunks(n, launch, dev, workers=workers, progress=progress, order=order)
     if return_cost == "detail":
         return value.numpy(), error.numpy(), detail.numpy()

@@ -3,7 +3,7 @@
 A Warp CPU launch runs on one thread and releases the GIL, so W Python threads that launch on
 disjoint index sets keep W cores busy. Texels are independent, so the result does not depend
 on the number of workers or on the chunking (tested). On a CUDA device one thread launches
-large chunks instead.
+large chunks instead, in blocks of :data:`CUDA_BLOCK_DIM` threads.
 
 The worker threads persist: each calling thread keeps one pool per worker count (thread-local,
 so concurrent computations never queue behind each other's chunks), and a program that
@@ -22,6 +22,12 @@ import numpy as np
 import warp as wp
 
 ProgressFn = Callable[[int, int], None]
+
+#: Threads per CUDA block (Warp's default is 256). One thread integrates one texel, so a 1024-texel
+#: table made 4 blocks, on 4 of an H200's 132 multiprocessors; with 32 it spreads over 32. Large
+#: launches lose nothing: the float64 kernels' registers, not the block size, bound the threads
+#: resident per multiprocessor. Measured in bench/gpu_launch.py (README, "On a GPU").
+CUDA_BLOCK_DIM = 32
 
 _local = threading.local()  # .pools: {workers: ThreadPoolExecutor} of the calling thread
 
@@ -164,7 +170,7 @@ def chunk_launcher(kernel, inputs: list, device: wp.Device) -> Callable[[wp.arra
         cmd = getattr(recorded, "cmd", None)
         if cmd is None:
             cmd = recorded.cmd = wp.launch(kernel, dim=idx.shape[0], inputs=[idx, *inputs], device=device,
-                                           record_cmd=True)
+                                           record_cmd=True, block_dim=CUDA_BLOCK_DIM if device.is_cuda else None)
         else:
             cmd.set_param_at_index(0, idx)
         cmd.set_dim(idx.shape[0])
