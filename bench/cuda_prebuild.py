@@ -10,7 +10,7 @@ minute of one core per module for the adaptive kernels). Warp compiles CUDA code
 
 The cache entry is found by the module's hash and the warp-lang version. The hash covers the
 source, the options (the block size among them: one entry per ``--block-dims`` value; the library
-launches CUDA kernels with ``runtime.CUDA_BLOCK_DIM`` threads per block) and, measured, the Python
+launches CUDA kernels in blocks of 32 or 256 threads, ``runtime.cuda_block_dim``) and, measured, the Python
 minor version: 3.11 and 3.12 hash the same module differently. So run this under the Python version
 of the GPU machine, on the same commit and warp-lang; a module whose entry does not match is
 compiled there as usual (slower, never wrong: the adaptive module took 95 s on an H200 machine).
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
     parser.add_argument("--arch", type=int, default=90, help="compute capability x 10 (default 90: Hopper)")
     parser.add_argument("--format", choices=("cubin", "ptx", "both"), default="cubin")
     parser.add_argument("--block-dims", default=None,
-                        help="comma-separated threads per block (default: the library's CUDA_BLOCK_DIM)")
+                        help="comma-separated threads per block (default: 32,256, the library's two)")
     parser.add_argument("--modules", default=None, help="comma-separated module names (default: every kernel module)")
     parser.add_argument("-j", "--jobs", type=int, default=os.cpu_count() or 1, help="processes (default: all cores)")
     args = parser.parse_args(argv)
@@ -70,17 +70,12 @@ def main(argv=None) -> int:
     if args.jobs < 1:
         parser.error("--jobs must be >= 1")
     formats = ("cubin", "ptx") if args.format == "both" else (args.format,)
-    if args.block_dims is None:
-        from bsdf_tab.integrate.runtime import CUDA_BLOCK_DIM
-
-        dims = [CUDA_BLOCK_DIM]
-    else:
-        try:
-            dims = [int(x) for x in args.block_dims.split(",")]
-        except ValueError:
-            parser.error("--block-dims takes integers, e.g. 32,256")
-        if any(d < 1 or d > 1024 for d in dims):
-            parser.error("--block-dims: each in 1..1024")
+    try:
+        dims = [int(x) for x in (args.block_dims or "32,256").split(",")]
+    except ValueError:
+        parser.error("--block-dims takes integers, e.g. 32,256")
+    if any(d < 1 or d > 1024 for d in dims):
+        parser.error("--block-dims: each in 1..1024")
     names = kernel_modules()
     if args.modules is not None:
         unknown = set(args.modules.split(",")) - set(names)

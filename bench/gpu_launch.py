@@ -3,10 +3,13 @@
 Run (on a machine with CUDA): ``python bench/gpu_launch.py [--device cuda:0] [--block-dims 256,32]``.
 Prints a table and writes ``bench/out/gpu_launch.json``. For each case of ``bench/core.py``
 (and its 64^3 table) it times ``integrate_texels`` on the device, the median of ``--reps`` runs,
-under each block size (``runtime.CUDA_BLOCK_DIM``, set for the run) and two orders of the
+under each block size (``runtime.CUDA_BLOCK_DIM``, set for the run; ``rule``: the library's
+``runtime.cuda_block_dim``), each launch size (``--chunks``, ``runtime.CUDA_CHUNK``) and two orders of the
 texels: the table's own (what the library launches on CUDA) and the CPU's interleave (every 7th
 texel together, which spreads expensive texels over worker threads; given here as permuted
-inputs). Values do not depend on either (asserted: bit-identical per texel).
+inputs). Values do not depend on either (asserted: bit-identical per texel). ``--sweep`` times
+dielectric tables of 16^3 .. 64^3 texels instead (eta > 1, the spec's axes), for the block size
+rule of ``runtime.cuda_block_dim``; ``--orders`` picks the orders.
 
 Each block size is a separate compile of the module (Warp hashes it into the module): fill the
 kernel cache first with ``bench/cuda_prebuild.py --block-dims`` under the same Python version,
@@ -41,22 +44,36 @@ def interleave(n: int) -> np.ndarray:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cuda:0")
-    parser.add_argument("--block-dims", default="256,32", help="comma-separated threads per block")
+    parser.add_argument("--block-dims", default="256,32", help="comma-separated threads per block, or rule")
+    parser.add_argument("--chunks", default=str(runtime.CUDA_CHUNK), help="comma-separated texels per launch")
+    parser.add_argument("--orders", default="table,interleaved", help="comma-separated: table, interleaved")
+    parser.add_argument("--sweep", action="store_true", help="dielectric tables 16^3 .. 64^3 instead of the core cases")
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--tol", type=float, default=None, help="the tables' tolerance (default: the spec's)")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "out" / "gpu_launch.json"))
     args = parser.parse_args(argv)
     try:
-        dims = [int(x) for x in args.block_dims.split(",")]
+        dims = [None if x == "rule" else int(x) for x in args.block_dims.split(",")]
+        chunks = [int(x) for x in args.chunks.split(",")]
     except ValueError:
-        parser.error("--block-dims takes integers, e.g. 256,32")
-    if not dims or any(d < 1 or d > 1024 for d in dims):
-        parser.error("--block-dims: each in 1..1024")
+        parser.error("--block-dims takes integers or rule, --chunks integers")
+    if not dims or any(d is not None and not 1 <= d <= 1024 for d in dims):
+        parser.error("--block-dims: each in 1..1024, or rule")
+    if not chunks or any(c < 1 for c in chunks):
+        parser.error("--chunks: each >= 1")
     if args.reps < 1:
         parser.error("--reps must be >= 1")
+    orders = args.orders.split(",")
+    if not orders or not set(orders) <= {"table", "interleaved"}:
+        parser.error("--orders: table and/or interleaved")
     dev = runtime.resolve_device(args.device)
     cases = []
-    for name, spec, mode in core.CASES + [core.LARGE]:
+    if args.sweep:
+        todo = [(f"dielectric {k}^3 eta>1", {"table": "dielectric", "axes": {a: {"size": k} for a in ("mu", "alpha", "eta")}},
+                 "dielectric") for k in (16, 24, 32, 40, 48, 64)]
+    else:
+        todo = core.CASES + [core.LARGE]
+    for name, spec, mode in todo:
         spec = json.loads(json.dumps(spec))
         if args.tol is not None:
             spec["tolerance"] = args.tol
@@ -64,31 +81,35 @@ def main(argv=None) -> int:
         mu, alpha, eta, _ = core._flat(table, mode)
         cases.append((name, mode, mu, alpha, eta, core._kw(table, spec)))
     rows = []
-    print(f"{'case':<24} {'texels':>7} " + " ".join(f"{f'{d}/{o}':>14}" for d in dims for o in ("table", "interleaved")))
+    configs = [(d, c, o) for d in dims for c in chunks for o in orders]
+
+    def label(d, c, o):
+        return f"{d or 'rule'}/{o}" + (f"/{c}" if len(chunks) > 1 else "")
+
+    print(f"{'case':<24} {'texels':>7} " + " ".join(f"{label(*k):>16}" for k in configs))
     for name, mode, mu, alpha, eta, kw in cases:
         row = {"case": name, "texels": int(mu.size), "seconds": {}}
         first = None
-        for d in dims:
-            runtime.CUDA_BLOCK_DIM = d
-            for order_name in ("table", "interleaved"):
-                perm = np.arange(mu.size) if order_name == "table" else interleave(mu.size)
-                inv = np.argsort(perm)
-                integrate_texels(mode, mu[perm], alpha[perm], eta[perm], device=dev, **kw)  # load
-                times = []
-                for _ in range(args.reps):
-                    t0 = time.perf_counter()
-                    v, _e = integrate_texels(mode, mu[perm], alpha[perm], eta[perm], device=dev, **kw)
-                    times.append(time.perf_counter() - t0)
-                v = v[inv]
-                if first is None:
-                    first = v
-                assert np.array_equal(v, first), f"{name}: values depend on the launch ({d}, {order_name})"
-                row["seconds"][f"{d}/{order_name}"] = statistics.median(times)
+        for d, c, order_name in configs:
+            runtime.CUDA_BLOCK_DIM, runtime.CUDA_CHUNK = d, c
+            perm = np.arange(mu.size) if order_name == "table" else interleave(mu.size)
+            inv = np.argsort(perm)
+            integrate_texels(mode, mu[perm], alpha[perm], eta[perm], device=dev, **kw)  # load
+            times = []
+            for _ in range(args.reps):
+                t0 = time.perf_counter()
+                v, _e = integrate_texels(mode, mu[perm], alpha[perm], eta[perm], device=dev, **kw)
+                times.append(time.perf_counter() - t0)
+            v = v[inv]
+            if first is None:
+                first = v
+            assert np.array_equal(v, first), f"{name}: values depend on the launch ({label(d, c, order_name)})"
+            row["seconds"][label(d, c, order_name)] = statistics.median(times)
         rows.append(row)
-        print(f"{name:<24} {row['texels']:>7} " + " ".join(f"{s:>14.4f}" for s in row["seconds"].values()), flush=True)
+        print(f"{name:<24} {row['texels']:>7} " + " ".join(f"{s:>16.4f}" for s in row["seconds"].values()), flush=True)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as fh:
-        json.dump({"device": dev.alias, "device_name": dev.name, "tol": args.tol, "rows": rows}, fh, indent=2)
+        json.dump({"device": dev.alias, "device_name": dev.name, "tol": args.tol, "sweep": args.sweep, "rows": rows}, fh, indent=2)
     print(f"wrote {args.out}")
     return 0
 

@@ -3,7 +3,7 @@
 A Warp CPU launch runs on one thread and releases the GIL, so W Python threads that launch on
 disjoint index sets keep W cores busy. Texels are independent, so the result does not depend
 on the number of workers or on the chunking (tested). On a CUDA device one thread launches
-large chunks instead, in blocks of :data:`CUDA_BLOCK_DIM` threads.
+large chunks instead (:data:`CUDA_CHUNK`), in blocks of :func:`cuda_block_dim` threads.
 
 The worker threads persist: each calling thread keeps one pool per worker count (thread-local,
 so concurrent computations never queue behind each other's chunks), and a program that
@@ -23,11 +23,24 @@ import warp as wp
 
 ProgressFn = Callable[[int, int], None]
 
-#: Threads per CUDA block (Warp's default is 256). One thread integrates one texel, so a 1024-texel
-#: table made 4 blocks, on 4 of an H200's 132 multiprocessors; with 32 it spreads over 32. Large
-#: launches lose nothing: the float64 kernels' registers, not the block size, bound the threads
-#: resident per multiprocessor. Measured in bench/gpu_launch.py (README, "On a GPU").
-CUDA_BLOCK_DIM = 32
+#: Threads per CUDA block: None for :func:`cuda_block_dim`'s rule, or a fixed number (benchmarks).
+CUDA_BLOCK_DIM: int | None = None
+#: Texels per CUDA launch (each launch is followed by a synchronize, for progress and cancellation).
+CUDA_CHUNK = 65536
+
+
+def cuda_block_dim(n: int, device: wp.Device) -> int:
+    """Threads per block for a CUDA launch of ``n`` texels (one thread each).
+
+    32 while ``n`` is under 256 per multiprocessor, else 256 (Warp's default). One thread
+    integrates one texel, so a 1024-texel table made 4 blocks of 256, on 4 of an H200's 132
+    multiprocessors; blocks of 32 spread it over 32. Once blocks of 256 fill every multiprocessor,
+    they are the faster (measured on an H200, ``bench/gpu_launch.py --sweep``: dielectric 16^3 in
+    0.029 s with 32 against 0.053 s with 256, 32^3 even, 64^3 in 0.41 s with 256 against 0.52 s).
+    """
+    if CUDA_BLOCK_DIM is not None:
+        return CUDA_BLOCK_DIM
+    return 256 if n >= 256 * max(1, device.sm_count) else 32
 
 _local = threading.local()  # .pools: {workers: ThreadPoolExecutor} of the calling thread
 
@@ -109,7 +122,7 @@ def run_chunks(
     ids = np.arange(n, dtype=np.int32) if order is None else np.asarray(order, dtype=np.int32)
     if device.is_cuda:
         workers = 1
-        chunk = chunk or 65536
+        chunk = chunk or CUDA_CHUNK
     else:
         workers = workers or default_workers()
         chunk = chunk or max(1, min(32, -(-n // (8 * workers))))
@@ -167,10 +180,12 @@ def chunk_launcher(kernel, inputs: list, device: wp.Device) -> Callable[[wp.arra
     recorded = threading.local()
 
     def launch(idx: wp.array) -> None:
-        cmd = getattr(recorded, "cmd", None)
+        block_dim = cuda_block_dim(idx.shape[0], device) if device.is_cuda else None
+        cmds = recorded.__dict__.setdefault("cmds", {})  # one recorded launch per block size
+        cmd = cmds.get(block_dim)
         if cmd is None:
-            cmd = recorded.cmd = wp.launch(kernel, dim=idx.shape[0], inputs=[idx, *inputs], device=device,
-                                           record_cmd=True, block_dim=CUDA_BLOCK_DIM if device.is_cuda else None)
+            cmd = cmds[block_dim] = wp.launch(kernel, dim=idx.shape[0], inputs=[idx, *inputs], device=device,
+                                              record_cmd=True, block_dim=block_dim)
         else:
             cmd.set_param_at_index(0, idx)
         cmd.set_dim(idx.shape[0])
