@@ -20,6 +20,13 @@ per phi piece: the two-stage rule) and inner bisections, and the mean cost of th
 are deterministic; times move with the machine's load. ``--variant KEY=VALUE`` (repeatable)
 also counts the same texels with other integrator keywords (e.g. ``inner_share=0.5``), in the
 same run, for before/after comparisons.
+
+On a GPU: ``--device cuda:0`` (the counts run there too; ns/eval is then the GPU's). ``--large``
+adds a dielectric 64^3 table (262144 texels, the size a GPU is for). With ``--no-numpy``,
+``--save-values FILE.npz`` writes each case's float64 values, reported errors and evaluation
+counts, and ``--compare-values FILE.npz`` compares this run's with them: the largest difference,
+the share of bit-identical texels, of texels within both runs' reported errors, and of texels with
+the same evaluation count (the README's GPU figures: saved on the GPU, compared on the CPU).
 """
 
 from __future__ import annotations
