@@ -1,7 +1,7 @@
 """Honesty and evaluation counts of the adaptive method on 1634 reference texels (issue 14).
 
 Run: ``python bench/accuracy_honesty.py [--tols 1e-3,5e-7] [--variant KEY=VALUE[,KEY=VALUE]]``
-(``--quick``: the sweep grid only). Prints, per integrator variant and tolerance, the mean and
+(``--quick``: the sweep grid only; ``--device cuda:0`` on a GPU). Prints, per integrator variant and tolerance, the mean and
 max integrand evaluations per texel (the kernel's own counters: exact, independent of load), the
 worst ratio (|true error| - reference bound) / reported error, the number of texel-channels
 above 1 ("dishonest") and the max true error; writes ``bench/out/accuracy_honesty.json``.
@@ -121,7 +121,7 @@ def references(recipe, mu, alpha, eta, cache: Path):
     return v, e
 
 
-def run(tols, variants, quick=False, out_dir: Path = DEFAULT_OUT, workers=None):
+def run(tols, variants, quick=False, out_dir: Path = DEFAULT_OUT, workers=None, device=None):
     from bsdf_tab.integrate.adaptive import integrate_texels
 
     sets = texel_sets(quick)
@@ -132,7 +132,7 @@ def run(tols, variants, quick=False, out_dir: Path = DEFAULT_OUT, workers=None):
             evals, worst, bad, maxerr, worst_set = [], 0.0, 0, 0.0, ""
             for (label, mode, kw, mu, alpha, eta, _), (rv, re) in zip(sets, refs):
                 v, e, c = integrate_texels(mode, mu, alpha, eta, tol=tol, return_cost=True, workers=workers,
-                                           **kw, **var)
+                                           device=device, **kw, **var)
                 ch = 1 if mode == "reflect" else 2
                 err = np.abs(v[:, :ch] - rv[:, :ch])
                 ratio = (err - re[:, :ch]) / np.maximum(e[:, :ch], 1e-300)  # reported errors are >= 1e-10
@@ -160,6 +160,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="the sweep grid only (770 texels)")
     parser.add_argument("--out", default=str(DEFAULT_OUT))
     parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--device", default=None, help="Warp device, e.g. cuda:0 (default: cpu)")
     args = parser.parse_args(argv)
     try:
         tols = [float(t) for t in args.tols.split(",")]
@@ -168,7 +169,7 @@ def main(argv=None) -> int:
         print(f"accuracy_honesty.py: error: bad --tols or --variant ({exc})", file=sys.stderr)
         return 2
     out = Path(args.out)
-    rows = run(tols, variants, args.quick, out, args.workers)
+    rows = run(tols, variants, args.quick, out, args.workers, args.device or "cpu")
     out.mkdir(parents=True, exist_ok=True)
     (out / "accuracy_honesty.json").write_text(json.dumps({"rows": rows}, indent=1))
     print(f"wrote {out / 'accuracy_honesty.json'}")
