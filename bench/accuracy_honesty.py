@@ -168,6 +168,13 @@ def main(argv=None) -> int:
     except ValueError as exc:
         print(f"accuracy_honesty.py: error: bad --tols or --variant ({exc})", file=sys.stderr)
         return 2
+    from bsdf_tab.integrate.runtime import resolve_device
+
+    try:
+        resolve_device(args.device or "cpu")
+    except ValueError as exc:
+        print(f"accuracy_honesty.py: error: --device: {exc}", file=sys.stderr)
+        return 2
     out = Path(args.out)
     rows = run(tols, variants, args.quick, out, args.workers, args.device or "cpu")
     out.mkdir(parents=True, exist_ok=True)

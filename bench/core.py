@@ -282,7 +282,14 @@ def main(argv=None) -> int:
         parser.error(str(exc))
     if (args.save_values or args.compare_values) and (not args.no_numpy or args.no_cost):
         parser.error("--save-values and --compare-values take --no-numpy and the evaluation counts (no --no-cost)")
-    reference = dict(np.load(args.compare_values)) if args.compare_values else None
+    try:
+        resolve_device(args.device)
+    except ValueError as exc:
+        parser.error(str(exc))
+    try:
+        reference = dict(np.load(args.compare_values)) if args.compare_values else None
+    except (OSError, ValueError) as exc:
+        parser.error(f"--compare-values: cannot read {args.compare_values}: {exc}")
     print(f"{'case':<24} {'texels':>6} {'warp s':>8} {'max err':>10} {'numpy s':>9} {'n':>5} {'np diff':>9} {'ratio':>8}")
     result = run(args.quick, cost=not args.no_cost, variants=variants, tol=args.tol, device=args.device,
                  numpy_baseline_on=not args.no_numpy, large=args.large, save_values=args.save_values,

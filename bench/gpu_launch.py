@@ -66,7 +66,10 @@ def main(argv=None) -> int:
     orders = args.orders.split(",")
     if not orders or not set(orders) <= {"table", "interleaved"}:
         parser.error("--orders: table and/or interleaved")
-    dev = runtime.resolve_device(args.device)
+    try:
+        dev = runtime.resolve_device(args.device)
+    except ValueError as exc:
+        parser.error(str(exc))
     cases = []
     if args.sweep:
         todo = [(f"dielectric {k}^3 eta>1", {"table": "dielectric", "axes": {a: {"size": k} for a in ("mu", "alpha", "eta")}},
