@@ -34,6 +34,7 @@ BENCHMARKS = {
     "anisotropy": ("anisotropy.py", "the isotropic collapse of anisotropic GGX, and the furnace after it"),
     "anisotropy_tables": ("anisotropy_tables.py", "the smallest albedo_aniso table under a lookup error"),
     "sheen_peers": ("sheen_peers.py", "our sheen albedo against MaterialX's and three.js' fits and tables"),
+    "eval_cost": ("eval_cost.py", "time per evaluation: the integrand alone against inside the inner phi integrals"),
     "gpu_launch": ("gpu_launch.py", "on a GPU: threads per block, texel order and launch size of the adaptive kernel"),
     "cuda_prebuild": ("cuda_prebuild.py", "fill Warp's kernel cache for a CUDA arch here, to carry to a GPU machine"),
     "load": ("load.py", "the service's hot path against a minimal app: requests/s and p99"),
