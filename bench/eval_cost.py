@@ -5,7 +5,8 @@ Run: ``python bench/eval_cost.py [--texels 2048] [--device cpu]``. Prints a tabl
 ``bench/out/eval_cost.json``. For random texels (mu, alpha uniform in [0.05, 1]; Fresnel
 dielectric 1.5 for reflection) and 64 micro-normal angles theta_m each, one kernel calls the
 method's :func:`~bsdf_tab.integrate.inner.inner_integral` (the shipped inner settings: two-stage
-G7 first with safety 8, the decay-ratio estimate, cuts mapped) and counts its evaluations; a
+G7 first with ``FIRST_SAFETY``, the decay-ratio estimate, the ends mapped as the method maps them
+at that tolerance) and counts its evaluations; a
 second kernel evaluates the integrand the same number of times at the same theta_m, on a uniform
 phi grid over the support (where i.m exceeds the reflection horizon's, or 0 for transmission),
 with no quadrature around it. Times are one launch each, on one core (``workers`` do not apply:
@@ -26,6 +27,7 @@ import warp as wp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bsdf_tab.integrate.adaptive import FIRST_SAFETY  # noqa: E402
 from bsdf_tab.integrate.inner import inner_integral  # noqa: E402
 from bsdf_tab.integrate.integrand import integrand_phi, make_texel  # noqa: E402
 from bsdf_tab.integrate.runtime import resolve_device  # noqa: E402
@@ -35,7 +37,7 @@ NT = 64  # theta_m per texel
 
 
 @wp.func
-def _texel(mu: wp.float64, alpha: wp.float64, mode: wp.int32, dist: wp.int32):
+def _texel(mu: wp.float64, alpha: wp.float64, mode: wp.int32, dist: wp.int32, inner_map: wp.int32):
     p = make_texel(mode, dist, 1, 2, wp.float64(1.5), wp.float64(0.0), mu, alpha, wp.float64(1.5))
     p.err_model = 1
     p.err_model_inner = 2
@@ -44,8 +46,8 @@ def _texel(mu: wp.float64, alpha: wp.float64, mode: wp.int32, dist: wp.int32):
     p.bound_share = wp.float64(0.0)
     p.inner_first = 5
     p.first_share = wp.float64(1.0)
-    p.first_safety = wp.float64(8.0)
-    p.inner_map = 1
+    p.first_safety = wp.float64(FIRST_SAFETY)
+    p.inner_map = inner_map
     return p
 
 
@@ -57,9 +59,9 @@ def _theta(k: wp.int32):
 
 @wp.kernel
 def inner_kernel(mu_a: wp.array(dtype=wp.float64), alpha_a: wp.array(dtype=wp.float64), mode: wp.int32,
-                 dist: wp.int32, tol: wp.float64, out: wp.array(dtype=wp.float64), evals: wp.array(dtype=wp.int32)):
+                 dist: wp.int32, inner_map: wp.int32, tol: wp.float64, out: wp.array(dtype=wp.float64), evals: wp.array(dtype=wp.int32)):
     i = wp.tid()
-    p = _texel(mu_a[i], alpha_a[i], mode, dist)
+    p = _texel(mu_a[i], alpha_a[i], mode, dist, inner_map)
     acc = wp.float64(0.0)
     ev = int(0)
     for k in range(NT):
@@ -73,9 +75,9 @@ def inner_kernel(mu_a: wp.array(dtype=wp.float64), alpha_a: wp.array(dtype=wp.fl
 
 @wp.kernel
 def integrand_kernel(mu_a: wp.array(dtype=wp.float64), alpha_a: wp.array(dtype=wp.float64), mode: wp.int32,
-                     dist: wp.int32, evals: wp.array(dtype=wp.int32), out: wp.array(dtype=wp.float64)):
+                     dist: wp.int32, inner_map: wp.int32, evals: wp.array(dtype=wp.int32), out: wp.array(dtype=wp.float64)):
     i = wp.tid()
-    p = _texel(mu_a[i], alpha_a[i], mode, dist)
+    p = _texel(mu_a[i], alpha_a[i], mode, dist, inner_map)
     acc = wp.float64(0.0)
     per = evals[i] // wp.int32(NT) + 1
     for k in range(NT):
@@ -112,9 +114,10 @@ def main(argv=None) -> int:
     print(f"{'case':<18} {'tol':>7} {'evals/inner':>11} {'inner ns/eval':>13} {'integrand ns/eval':>17} {'inner share':>11}")
     for mode, dist, label in ((0, 0, "reflect GGX"), (0, 1, "reflect Beckmann"), (1, 0, "dielectric GGX")):
         for tol in (1e-3, 1e-7):
+            inner_map = 2 if tol >= 1e-3 else 1  # the shipped rule (integrate_texels: inner_map=None)
             times = {}
-            for name, kernel, inputs in (("inner", inner_kernel, [mu, alpha, mode, dist, tol, out, evals]),
-                                         ("integrand", integrand_kernel, [mu, alpha, mode, dist, evals, out])):
+            for name, kernel, inputs in (("inner", inner_kernel, [mu, alpha, mode, dist, inner_map, tol, out, evals]),
+                                         ("integrand", integrand_kernel, [mu, alpha, mode, dist, inner_map, evals, out])):
                 wp.launch(kernel, dim=min(8, args.texels), inputs=inputs, device=dev)  # compile, warm
                 if name == "inner":
                     wp.launch(kernel, dim=args.texels, inputs=inputs, device=dev)  # the counts for both

@@ -113,8 +113,6 @@ from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, 
 # no kernel of this module is differentiated: no adjoint code (a third of the compile time)
 wp.set_module_options({"enable_backward": False})
 
-_vec16d = vec16d
-
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
@@ -155,8 +153,8 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     ei = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     eg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-    f0 = _vec16d()
-    f1 = _vec16d()
+    f0 = vec16d()
+    f1 = vec16d()
     rules = wp.vec2i(0, 0)
     g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     d = wp.vec2d(wp.float64(0.0), wp.float64(0.0))

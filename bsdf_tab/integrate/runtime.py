@@ -183,7 +183,9 @@ def chunk_launcher(kernel, inputs: list, device: wp.Device) -> Callable[[wp.arra
 
     def launch(idx: wp.array) -> None:
         block_dim = cuda_block_dim(idx.shape[0], device) if device.is_cuda else None
-        cmds = recorded.__dict__.setdefault("cmds", {})  # one recorded launch per block size
+        cmds = getattr(recorded, "cmds", None)  # this thread's recorded launches, one per block size
+        if cmds is None:
+            cmds = recorded.cmds = {}
         cmd = cmds.get(block_dim)
         if cmd is None:
             cmd = cmds[block_dim] = wp.launch(kernel, dim=idx.shape[0], inputs=[idx, *inputs], device=device,

@@ -15,16 +15,12 @@ from pathlib import Path
 import pytest
 import warp as wp
 
-import bsdf_tab
+from bench.cuda_prebuild import kernel_modules
 
 # every module of the package that defines a kernel (found in the source, so that a new kernel
-# module is checked without editing this list); the model is compiled through them
-_ROOT = Path(bsdf_tab.__file__).resolve().parent
-KERNEL_MODULES = sorted(
-    "bsdf_tab." + ".".join(p.relative_to(_ROOT).with_suffix("").parts)
-    for p in _ROOT.rglob("*.py")
-    if re.search(r"^@wp\.kernel", p.read_text(encoding="utf-8"), re.MULTILINE)
-)
+# module is checked without editing this list; the rule bench/cuda_prebuild.py fills a GPU
+# machine's kernel cache with); the model is compiled through them
+KERNEL_MODULES = kernel_modules()
 EXPECTED = {
     "bsdf_tab.integrate.adaptive",
     "bsdf_tab.integrate.grid",
