@@ -40,8 +40,7 @@ from bsdf_tab.integrate import adaptive, integrate_texels
 from bsdf_tab.integrate.inner import inner_integral
 from bsdf_tab.integrate.integrand import MODE_DIELECTRIC, MODE_REFLECT, integrand_phi, make_texel
 from bsdf_tab.integrate.quadrature import GK_X, WG7, WI3, WI5, XGK, first_stage, vec16d
-from tests.integrate.honesty import assert_honest
-from tests.reference import microfacet_ref as ref
+from tests.integrate.honesty import assert_honest, reference_set
 from tests.reference.sampling import sample_texels
 
 
@@ -124,12 +123,9 @@ def _texels():
     mu_t, alpha_t, eta_t = sample_texels(7002, 10, eta="<1")
     mu_g, alpha_g, eta_g = sample_texels(7003, 6, eta=">1")
     return [
-        ("reflect", {"dist": 0, "shadowing": 1}, mu, alpha, np.ones(mu.size),
-         [(ref.albedo(m, a, "ggx", "correlated", ("one",), methods="B"),) for m, a in zip(mu, alpha)]),
-        ("dielectric", {"dist": 1, "shadowing": 0}, mu_t, alpha_t, eta_t,
-         [ref.dielectric(m, a, t, "beckmann", "separable", methods="B") for m, a, t in zip(mu_t, alpha_t, eta_t)]),
-        ("dielectric", {"dist": 0, "shadowing": 1}, mu_g, alpha_g, eta_g,
-         [ref.dielectric(m, a, t, "ggx", "correlated", methods="B") for m, a, t in zip(mu_g, alpha_g, eta_g)]),
+        reference_set("reflect", "ggx", "correlated", mu, alpha),
+        reference_set("dielectric", "beckmann", "separable", mu_t, alpha_t, eta_t),
+        reference_set("dielectric", "ggx", "correlated", mu_g, alpha_g, eta_g),
     ]
 
 
@@ -183,12 +179,9 @@ def _rough_texels():
     eta = np.concatenate([[1.5, 1.0 / 1.5, 1.01, 3.0, 0.7, 1.5], 1.0 / rng.uniform(1.01, 4.0, 3),
                           rng.uniform(1.01, 4.0, 3)])
     return [
-        ("reflect", {"dist": 1, "shadowing": 0}, mu, alpha, np.ones(mu.size),
-         [(ref.albedo(m, a, "beckmann", "separable", ("one",), methods="B"),) for m, a in zip(mu, alpha)]),
-        ("reflect", {"dist": 0, "shadowing": 1, "ftype": 2, "fp0": 0.6}, mu, alpha, np.ones(mu.size),
-         [(ref.albedo(m, a, "ggx", "correlated", ("dielectric", 0.6), methods="B"),) for m, a in zip(mu, alpha)]),
-        ("dielectric", {"dist": 0, "shadowing": 1}, mu, alpha, eta,
-         [ref.dielectric(m, a, t, "ggx", "correlated", methods="B") for m, a, t in zip(mu, alpha, eta)]),
+        reference_set("reflect", "beckmann", "separable", mu, alpha),
+        reference_set("reflect", "ggx", "correlated", mu, alpha, fresnel=("dielectric", 0.6)),
+        reference_set("dielectric", "ggx", "correlated", mu, alpha, eta),
     ]
 
 

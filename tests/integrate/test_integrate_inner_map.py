@@ -11,16 +11,13 @@ each kind present, and the defaults must spend less than the smoothstep everywhe
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
 
 from bsdf_tab.integrate import integrate_texels
-from tests.integrate.honesty import assert_honest
-from tests.reference import microfacet_ref as ref
+from tests.integrate.honesty import assert_honest, reference_set
 
-GGX, BECKMANN, SEPARABLE, CORRELATED = 0, 1, 0, 1
 
 
 def _cases():
@@ -31,16 +28,12 @@ def _cases():
     eta_gt = 1.0 / eta_lt
     return [
         # reflection horizon and i.m = 0 cuts only
-        ("reflect", {"dist": GGX, "shadowing": CORRELATED}, mu, alpha, np.ones(6),
-         [(ref.albedo(m, a, "ggx", "correlated", ("one",), methods="B"),) for m, a in zip(mu, alpha)]),
+        reference_set("reflect", "ggx", "correlated", mu, alpha),
         # a reflection with a dielectric Fresnel of eta < 1: its critical cut (ftype 2: p0 = eta)
-        ("reflect", {"dist": BECKMANN, "shadowing": SEPARABLE, "ftype": 2, "fp0": 0.6}, mu, alpha, np.ones(6),
-         [(ref.albedo(m, a, "beckmann", "separable", ("dielectric", 0.6), methods="B"),) for m, a in zip(mu, alpha)]),
+        reference_set("reflect", "beckmann", "separable", mu, alpha, fresnel=("dielectric", 0.6)),
         # eta < 1: the critical cut and the transmission horizon; eta > 1: the horizons only
-        ("dielectric", {"dist": GGX, "shadowing": CORRELATED}, mu, alpha, eta_lt,
-         [ref.dielectric(m, a, t, "ggx", "correlated", methods="B") for m, a, t in zip(mu, alpha, eta_lt)]),
-        ("dielectric", {"dist": BECKMANN, "shadowing": CORRELATED}, mu, alpha, eta_gt,
-         [ref.dielectric(m, a, t, "beckmann", "correlated", methods="B") for m, a, t in zip(mu, alpha, eta_gt)]),
+        reference_set("dielectric", "ggx", "correlated", mu, alpha, eta_lt),
+        reference_set("dielectric", "beckmann", "correlated", mu, alpha, eta_gt),
     ]
 
 
