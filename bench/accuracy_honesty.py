@@ -152,8 +152,8 @@ def run(tols, variants, quick=False, out_dir: Path = DEFAULT_OUT, workers=None, 
     return rows
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def main(argv=None, prog=None) -> int:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n")[0])
     parser.add_argument("--tols", default="1e-2,1e-3,1e-4,1e-5,1e-6,5e-7,1e-7")
     parser.add_argument("--variant", action="append", default=[], metavar="KEY=VALUE[,KEY=VALUE]",
                         help="integrator keywords (repeatable; the default method always runs first)")

@@ -62,8 +62,8 @@ def multilinear(grid_axes, values, points):
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a coarse grid (CI smoke run)")
     args = ap.parse_args(argv)
     quiet_warp()

@@ -178,8 +178,8 @@ def study(mu_min: float, r_min: float, n, n_random: int, n_edge: int, tol: float
             "best": best, "finest": finest, "tables": results}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--domain", action="append", default=None, metavar="MU_MIN,R_MIN[,A_MAX]",
                     help="a domain (repeat); default: 0.1,0.2 and 0.05,0.1 and 0.1,0.2,0.8")
     ap.add_argument("--tol", type=float, default=1e-3, help="max lookup error (default 1e-3)")

@@ -260,8 +260,8 @@ def _row(r):
     )
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller NumPy node sweep")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "out" / "core.json"))
     parser.add_argument("--no-cost", action="store_true", help="skip the evaluation counts")

@@ -56,8 +56,8 @@ def _compile(name: str, arch: int, formats: tuple[str, ...], block_dim: int) -> 
         return name, time.perf_counter() - t0, f"{type(exc).__name__}: {exc}"
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--arch", type=int, default=90, help="compute capability x 10 (default 90: Hopper)")
     parser.add_argument("--format", choices=("cubin", "ptx", "both"), default="cubin")
     parser.add_argument("--block-dims", default=None,

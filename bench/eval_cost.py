@@ -93,8 +93,8 @@ def integrand_kernel(mu_a: wp.array(dtype=wp.float64), alpha_a: wp.array(dtype=w
     out[i] = acc
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--texels", type=int, default=2048)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "out" / "eval_cost.json"))

@@ -41,8 +41,8 @@ def interleave(n: int) -> np.ndarray:
     return np.argsort(np.arange(n) % 7, kind="stable")
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--block-dims", default="256,32", help="comma-separated threads per block, or rule")
     parser.add_argument("--chunks", default=str(runtime.CUDA_CHUNK), help="comma-separated texels per launch")

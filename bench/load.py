@@ -240,8 +240,8 @@ def median_of(runs: list[dict]) -> dict:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("--clients", type=int, nargs="+", default=[1, 8, 64])
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats per client count (medians)")
     ap.add_argument("--duration", type=float, default=3.0, help="seconds per phase (at most 60)")

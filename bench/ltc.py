@@ -255,8 +255,8 @@ def heatmaps(path: Path, rows: list, mu, alpha) -> None:
     plt.close(fig)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="every 4th texel along both axes (16 x 16)")
     ap.add_argument("--quads", type=int, default=16, help="random quads per texel (default 16; the 4-quad judge "
                     "of the same seed is always reported too)")

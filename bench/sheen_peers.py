@@ -95,8 +95,8 @@ def read_table(path: Path) -> np.ndarray:
     return np.asarray(t, dtype=np.float64).reshape(16, 16)  # [roughness j, cosTheta i]
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--table", action="append", default=[], metavar="PATH[,r|r2]",
                     help="a 16 x 16 MaterialX-style sheen table and its alpha convention (alpha = roughness: r, "
                     "default; alpha = roughness^2: r2); repeat")

@@ -75,8 +75,8 @@ def _run_checkout(root: Path) -> dict:
     return res
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, prog=None) -> int:
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("old", type=Path, help="the checkout to compare against (a worktree of an older commit)")
     ap.add_argument("new", type=Path, help="the checkout under test")
     ap.add_argument("--reps", type=int, default=3, help="interleaved repetitions (default 3)")

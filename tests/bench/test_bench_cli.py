@@ -86,3 +86,26 @@ def test_building_the_parser_loads_no_benchmark_code(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_every_registered_benchmark_takes_argv_and_prog():
+    """`bsdf-tab bench NAME` calls the script's main(argv, prog=...): a main without prog failed
+    as an internal error (core, versions, honesty ... until issue 14's eleventh session)."""
+    import ast
+
+    root = Path(__file__).resolve().parents[2] / "bench"
+    for name, (script, _) in cli_bench.BENCHMARKS.items():
+        tree = ast.parse((root / script).read_text(encoding="utf-8"))
+        # a script may re-export main (bench/accuracy.py: from bench.accuracy_sweep import main)
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and any(a.name == "main" for a in node.names):
+                tree = ast.parse((root / (node.module.split(".")[-1] + ".py")).read_text(encoding="utf-8"))
+        mains = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "main"]
+        assert len(mains) == 1, name
+        params = [a.arg for a in mains[0].args.args + mains[0].args.kwonlyargs]
+        assert params[:1] == ["argv"] and "prog" in params, (name, params)
+
+
+def test_a_benchmark_usage_error_is_exit_2_under_its_cli_name(capsys):
+    assert cli_bench.run(_args("gpu_launch", "--block-dims", "0")) == 2
+    assert "bsdf-tab bench gpu_launch: error: --block-dims" in capsys.readouterr().err
