@@ -34,7 +34,9 @@ if str(REPO_ROOT) not in sys.path:
 
 from bench.accuracy_sweep import ALPHA_FULL, MU_FULL  # noqa: E402
 from tests.reference.sampling import fresnel_spec, sample_texels  # noqa: E402
-from bench.common import CASES, DEFAULT_OUT, distribution_id, parse_variants, reference_module, shadowing_id  # noqa: E402
+from bench.common import (  # noqa: E402
+    CASES, DEFAULT_OUT, device_arg, distribution_id, parse_variants, reference_module, shadowing_id,
+)
 
 DISTS = ("ggx", "beckmann")
 SHADS = ("separable", "correlated")
@@ -168,13 +170,7 @@ def main(argv=None, prog=None) -> int:
     except ValueError as exc:
         print(f"accuracy_honesty.py: error: bad --tols or --variant ({exc})", file=sys.stderr)
         return 2
-    from bsdf_tab.integrate.runtime import resolve_device
-
-    try:
-        resolve_device(args.device or "cpu")
-    except ValueError as exc:
-        print(f"accuracy_honesty.py: error: --device: {exc}", file=sys.stderr)
-        return 2
+    device_arg(parser, args.device or "cpu")
     out = Path(args.out)
     rows = run(tols, variants, args.quick, out, args.workers, args.device or "cpu")
     out.mkdir(parents=True, exist_ok=True)

@@ -214,6 +214,17 @@ def parse_variants(texts) -> list[dict]:
     return variants
 
 
+def device_arg(parser, name):
+    """The Warp device of a script's ``--device`` option (None: Warp's default), or the parser's one
+    line naming the option and exit 2 (an unknown or unavailable device)."""
+    from bsdf_tab.integrate.runtime import resolve_device
+
+    try:
+        return resolve_device(name)
+    except ValueError as exc:
+        parser.error(f"--device: {exc}")
+
+
 def stop_process(proc) -> None:
     """Stop a child process we started (a server): SIGTERM, then SIGKILL after 10 s."""
     import subprocess

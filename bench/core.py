@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bsdf_tab  # noqa: E402
 from bsdf_tab.integrate.runtime import default_workers, resolve_device  # noqa: E402
 import numpy_baseline  # noqa: E402
-from common import parse_variants  # noqa: E402
+from common import device_arg, parse_variants  # noqa: E402
 
 CASES = [
     ("albedo 32x32 GGX", {"table": "albedo", "distribution": "ggx"}, "reflect"),
@@ -282,10 +282,7 @@ def main(argv=None, prog=None) -> int:
         parser.error(str(exc))
     if (args.save_values or args.compare_values) and (not args.no_numpy or args.no_cost):
         parser.error("--save-values and --compare-values take --no-numpy and the evaluation counts (no --no-cost)")
-    try:
-        resolve_device(args.device)
-    except ValueError as exc:
-        parser.error(str(exc))
+    device_arg(parser, args.device)
     try:
         reference = dict(np.load(args.compare_values)) if args.compare_values else None
     except (OSError, ValueError) as exc:

@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bsdf_tab.integrate.adaptive import FIRST_SAFETY  # noqa: E402
 from bsdf_tab.integrate.inner import inner_integral  # noqa: E402
 from bsdf_tab.integrate.integrand import integrand_phi, make_texel  # noqa: E402
-from bsdf_tab.integrate.runtime import resolve_device  # noqa: E402
+from bench.common import device_arg  # noqa: E402
 
 wp.set_module_options({"enable_backward": False})
 NT = 64  # theta_m per texel
@@ -101,10 +101,7 @@ def main(argv=None, prog=None) -> int:
     args = parser.parse_args(argv)
     if args.texels < 1:
         parser.error("--texels must be >= 1")
-    try:
-        dev = resolve_device(args.device)
-    except ValueError as exc:
-        parser.error(str(exc))
+    dev = device_arg(parser, args.device)
     rng = np.random.default_rng(1)
     mu = wp.array(rng.uniform(0.05, 1.0, args.texels), dtype=wp.float64, device=dev)
     alpha = wp.array(rng.uniform(0.05, 1.0, args.texels), dtype=wp.float64, device=dev)

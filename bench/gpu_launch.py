@@ -34,6 +34,7 @@ import bsdf_tab  # noqa: E402
 from bsdf_tab.integrate import runtime  # noqa: E402
 from bsdf_tab.integrate.adaptive import integrate_texels  # noqa: E402
 import core  # noqa: E402
+from common import device_arg  # noqa: E402
 
 
 def interleave(n: int) -> np.ndarray:
@@ -66,10 +67,7 @@ def main(argv=None, prog=None) -> int:
     orders = args.orders.split(",")
     if not orders or not set(orders) <= {"table", "interleaved"}:
         parser.error("--orders: table and/or interleaved")
-    try:
-        dev = runtime.resolve_device(args.device)
-    except ValueError as exc:
-        parser.error(str(exc))
+    dev = device_arg(parser, args.device)
     cases = []
     if args.sweep:
         todo = [(f"dielectric {k}^3 eta>1", {"table": "dielectric", "axes": {a: {"size": k} for a in ("mu", "alpha", "eta")}},

@@ -42,6 +42,18 @@ def test_core_rejects_bad_arguments(argv, capsys):
     assert "error:" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("script", ["core", "gpu_launch", "eval_cost", "accuracy_honesty"])
+def test_an_unavailable_device_is_one_line_naming_the_option(script, capsys):
+    import importlib
+
+    mod = importlib.import_module(f"bench.{script}")
+    with pytest.raises(SystemExit) as info:
+        mod.main(["--device", "cuda:97"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "error: --device:" in err[-1] and "cuda:97" in err[-1]
+
+
 def test_compare_values_counts_agreement_and_honesty():
     from bench.core import compare_values
 
