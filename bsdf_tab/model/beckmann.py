@@ -15,6 +15,7 @@ from typing import Any
 import warp as wp
 
 from .frame import expm1_, log1p_
+from .ierfc_table import IERFC_A_MAX, IERFC_PER_UNIT, IERFC_PIECES, IERFC_TAIL
 
 NAME = "beckmann"
 DESCRIPTION = "Beckmann, alpha = alpha_b (Walter et al. 2007 eq. 25)"
@@ -183,6 +184,81 @@ def beckmann_ierfc_scaled(a: Any):
     return u * _ierfc_poly(x, _ierfc_row(wp.int32(12 + j)))
 
 
+def _c_double(v: float) -> str:
+    # a C double literal that reads back as v exactly (repr is the shortest round-trip form)
+    return repr(float(v))
+
+
+def _poly_c(n: int, x: str, c: str) -> str:
+    # sum_j c[j] x^j, j < n (n = 12 or 16), by Estrin's scheme, as one C expression
+    quad = [f"(({c}[{j}] + {c}[{j + 1}] * {x}) + ({c}[{j + 2}] + {c}[{j + 3}] * {x}) * x2)" for j in range(0, n, 4)]
+    if n == 12:
+        return f"({quad[0]} + ({quad[1]} + {quad[2]} * x4) * x4)"
+    return f"(({quad[0]} + {quad[1]} * x4) + ({quad[2]} + {quad[3]} * x4) * (x4 * x4))"
+
+
+# ierfc(a) for float64 a >= 0 as native code: one table look-up instead of a tree of branches
+# (the pieces' branches mispredicted at the inner rule's nodes, whose a jumps about: ~15 ns of
+# a Beckmann Lambda's ~30 ns, issue 14), and no exp below a = 6 (the pieces are of ierfc itself)
+_IERFC_SNIPPET = f"""
+if (a >= 0.0 && a < {_c_double(IERFC_A_MAX)}) {{
+    static const double P[{len(IERFC_PIECES)}][16] = {{
+{",".join("{" + ",".join(_c_double(v) for v in row) + "}" for row in IERFC_PIECES)}
+    }};
+    int k = (int)(a * {_c_double(IERFC_PER_UNIT)});
+    const double* c = P[k];
+    // 16 a and its difference to an odd integer are exact
+    double x = {_c_double(2 * IERFC_PER_UNIT)} * a - (double)(2 * k + 1);
+    double x2 = x * x;
+    double x4 = x2 * x2;
+    return {_poly_c(16, "x", "c")};
+}}
+double a2 = a * a;
+if (a2 > 708.0) {{
+    // exp(-a^2) < 2^-1021 and ierfc < 1e-3 of it: 0 (exp's subnormal results are slow)
+    return 0.0;
+}}
+static const double T[12] = {{{",".join(_c_double(v) for v in IERFC_TAIL)}}};
+double u = 1.0 / a2;
+double x = 72.0 * u - 1.0;
+double x2 = x * x;
+double x4 = x2 * x2;
+// exp(-a^2) with the rounding of a^2 put back (a2 + lo = a^2 exactly): without it exp would
+// carry a^2's rounding, up to ~700 ulp here
+double lo = fma(a, a, -a2);
+return (wp::exp(-a2) * (1.0 - lo)) * (u * {_poly_c(12, "x", "T")});
+"""
+
+
+# d ierfc / da = -erfc(a): the adjoint, for users' differentiable kernels
+@wp.func_native(_IERFC_SNIPPET, adj_snippet="adj_a += -wp::erfc(a) * adj_ret;")
+def _ierfc_native(a: wp.float64) -> wp.float64:
+    ...
+
+
+@wp.func
+def beckmann_ierfc(a: Any):
+    """ierfc(a) = int_a^inf erfc(t) dt = exp(-a^2) / sqrt(pi) - a erfc(a), a >= 0 (nan stays nan).
+
+    Generic: exp(-a^2) h(a) with :func:`beckmann_ierfc_scaled`, 0 where a^2 > 708 (the value
+    is then below 2^-1021). float64 (the overload below) is native code from
+    :mod:`bsdf_tab.model.ierfc_table`.
+    """
+    a2 = a * a
+    if a2 > type(a)(708.0):
+        # exp(-a^2) < 2^-1021 and h < 1e-3: subnormal or 0, and exp's subnormal results are slow
+        return type(a)(0.0)
+    return wp.exp(-a2) * beckmann_ierfc_scaled(a)
+
+
+@wp.func
+def beckmann_ierfc(a: wp.float64):
+    """float64: ierfc from 48 polynomials of degree 15 in a on [k / 8, (k + 1) / 8] below a = 6 (one
+    table row, no branch tree, no exp) and exp(-a^2) u Q(u), u = 1 / a^2, beyond; within a few
+    ulp of ierfc (tests/model/test_model_ierfc_table.py)."""
+    return _ierfc_native(a)
+
+
 @wp.func
 def beckmann_lambda_cos(cos_theta_v: Any, alpha: Any):
     """|cos| * Lambda(v) with a = 1 / (alpha tan): alpha s (exp(-a^2) / (2 sqrt(pi)) - a erfc(a) / 2) = alpha s ierfc(a) / 2.
@@ -196,14 +272,9 @@ def beckmann_lambda_cos(cos_theta_v: Any, alpha: Any):
     if s * alpha <= zero:
         # normal incidence or mirror: no shadowing
         return zero
-    a = z / (alpha * s)
-    a2 = a * a
-    if a2 > type(alpha)(708.0):
-        # exp(-a^2) < 2^-1021 and h < 1e-3: the value is below 2^-1022 alpha (subnormal, or 0),
-        # and exp's subnormal results cost ~70 ns: 0 (most nodes of a small-alpha texel)
-        return zero
-    # exp(-a^2) ierfc-scaled: no erfc and no cancellation (beckmann_ierfc_scaled)
-    return alpha * s * type(alpha)(0.5) * (wp.exp(-a2) * beckmann_ierfc_scaled(a))
+    # ierfc without erfc and without cancellation (beckmann_ierfc): 0 where a^2 > 708 (below
+    # 2^-1022 alpha; most nodes of a small-alpha texel)
+    return alpha * s * type(alpha)(0.5) * beckmann_ierfc(z / (alpha * s))
 
 
 @wp.func
