@@ -219,12 +219,14 @@ PI_LO = wp.constant(wp.float64(1.2246467991473532e-16))
 
 
 @wp.func
-def _horner8(z: wp.float64, c: Any):
-    # c[0] + c[1] z + ... + c[7] z^7
-    q = c[7]
-    for k in range(7):
-        q = q * z + c[6 - k]
-    return q
+def _estrin8(z: wp.float64, c: Any):
+    # c[0] + c[1] z + ... + c[7] z^7 by Estrin's scheme: a dependency chain of 3 multiply-adds
+    # and two squarings instead of Horner's 7
+    z2 = z * z
+    z4 = z2 * z2
+    lo = (c[0] + c[1] * z) + (c[2] + c[3] * z) * z2
+    hi = (c[4] + c[5] * z) + (c[6] + c[7] * z) * z2
+    return lo + hi * z4
 
 
 @wp.func
@@ -235,16 +237,18 @@ def cos_0_pi(x: wp.float64):
     range reduction for any x) was ~17% of the kernel's time (issue 14, fifth round). Reduced
     to |y| <= pi/4 by cos x = sin(pi/2 - x) and -cos(pi - x), with pi/2 and pi in two parts
     (pi/2 - x and pi - x are exact in float64 where they are used: Sterbenz), then Taylor
-    polynomials of degree 16 / 17.
+    polynomials of degree 16 / 17. Without branches (issue 14, ninth round): both polynomials
+    are evaluated and the reduction and the result are selected, because a rule's nodes move
+    between the three ranges from one evaluation to the next and the branches mispredicted.
     """
     one = wp.float64(1.0)
     if x <= wp.float64(0.7853981633974483):
-        return one + x * x * _horner8(x * x, COS_C)
+        return one + x * x * _estrin8(x * x, COS_C)
     if x <= wp.float64(2.356194490192345):
         y = (PIO2_HI - x) + PIO2_LO
-        return y + y * (y * y * _horner8(y * y, SIN_C))
+        return y + y * (y * y * _estrin8(y * y, SIN_C))
     y = (PI_HI - x) + PI_LO
-    return -(one + y * y * _horner8(y * y, COS_C))
+    return -(one + y * y * _estrin8(y * y, COS_C))
 
 
 @wp.func
