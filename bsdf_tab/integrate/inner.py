@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import warp as wp
 
-from .integrand import MODE_DIELECTRIC, PI64, TexelParams, insert_sorted, integrand_phi, phi_of_c, tir_eta
+from .integrand import (
+    MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, insert_sorted, integrand_cos, integrand_phi, phi_of_c, tir_eta,
+)
 from .quadrature import (
     WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
     make_global_bisection, vec8d, vec16d,
@@ -28,11 +30,27 @@ vec6d = wp.types.vector(length=6, dtype=wp.float64)
 
 
 @wp.func
-def _phi_node(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, j: wp.int32):
-    # the integrand at node j (j < 8: +XGK[j], else -XGK[j - 8]) of [ctr - hl, ctr + hl] in t,
-    # through the piece's end map (x[6]: which ends are mapped, end_map)
-    s, ds = end_map(gk_abscissa(ctr, hl, j), int(x[6]))
-    return integrand_phi(p, x[0], x[1], x[2], x[3] + (x[4] - x[3]) * s) * (ds * (x[4] - x[3]))
+def _phi_nodes(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, odd: wp.int32,
+               f0: vec16d, f1: vec16d):
+    # the integrand at the nodes j of parity ``odd`` (j < 8: +XGK[j], else -XGK[j - 8]) of
+    # [ctr - hl, ctr + hl] in t, through the piece's end map (x[6]: which ends, end_map), into
+    # f0, f1: first every node's cos(phi) and Jacobian, then the integrand at each (the cosines'
+    # chains apart from the integrand's)
+    ends = int(x[6])
+    ln = x[4] - x[3]
+    cps = vec16d()
+    jac = vec16d()
+    for j in range(15):
+        if j % 2 == odd:
+            s, ds = end_map(gk_abscissa(ctr, hl, j), ends)
+            cps[j] = cos_0_pi(x[3] + ln * s)
+            jac[j] = ds * ln
+    for j in range(15):
+        if j % 2 == odd:
+            f = integrand_cos(p, x[0], x[1], x[2], cps[j]) * jac[j]
+            f0[j] = f[0]
+            f1[j] = f[1]
+    return f0, f1
 
 
 @wp.func
@@ -49,21 +67,13 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     f0 = vec16d()
     f1 = vec16d()
-    for j in range(15):
-        if j % 2 == 1:
-            f = _phi_node(p, x, ctr, hl, j)
-            f0[j] = f[0]
-            f1[j] = f[1]
+    f0, f1 = _phi_nodes(p, x, ctr, hl, 1, f0, f1)
     if p.inner_first > 0:
         g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
         # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
         if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(7)
-    for j in range(15):
-        if j % 2 == 0:
-            f = _phi_node(p, x, ctr, hl, j)
-            f0[j] = f[0]
-            f1[j] = f[1]
+    f0, f1 = _phi_nodes(p, x, ctr, hl, 0, f0, f1)
     for j in range(15):
         jj = j
         if j >= 8:

@@ -252,12 +252,9 @@ def cos_0_pi(x: wp.float64):
 
 
 @wp.func
-def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
-    """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi).
-
-    ``cm``, ``sm``, ``tm`` are cos, sin and tan of theta_m; the measure is D cos dw_m.
-    """
-    cp = cos_0_pi(phi)
+def integrand_cos(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, cp: wp.float64):
+    """:func:`integrand_phi` at the azimuth whose cosine is ``cp`` (the inner rule forms the
+    cosines of its nodes first, apart from the integrand's own chain of operations)."""
     c = p.sin_i * sm * cp + p.mu * cm
     if c > wp.float64(0.0):
         # (i.m) / cos(theta_m), written without the division
@@ -266,6 +263,15 @@ def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64
     # (tan theta_m = inf, sin = inf * 0), where D cos has no mass: 0, as the forms before the
     # fused Fresnel gave there through their nan comparisons
     return wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+
+
+@wp.func
+def integrand_phi(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, phi: wp.float64):
+    """F G D (i.m) / (mu D cos theta_m) for reflection (x) and transmission (y) at (theta_m, phi).
+
+    ``cm``, ``sm``, ``tm`` are cos, sin and tan of theta_m; the measure is D cos dw_m.
+    """
+    return integrand_cos(p, cm, sm, tm, cos_0_pi(phi))
 
 
 @wp.func
