@@ -29,7 +29,9 @@ wp.set_module_options({"enable_backward": False})
 vec6d = wp.types.vector(length=6, dtype=wp.float64)
 
 
-@wp.func
+# inlined into gk_phi (its two calls): out of line it took p, x, f0 and f1 by value, ~0.5 KB
+# copied per call, and measured 8-11% slower (issue 14, ninth round)
+@wp.func(inline=True)
 def _phi_nodes(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, odd: wp.int32,
                f0: vec16d, f1: vec16d):
     # the integrand at the nodes j of parity ``odd`` (j < 8: +XGK[j], else -XGK[j - 8]) of
