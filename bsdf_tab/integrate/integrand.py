@@ -194,7 +194,8 @@ def terms(p: TexelParams, c: wp.float64, cm: wp.float64, jac: wp.float64):
     if refracts:
         # not totally reflected: o_t = (d / eta) m - i / eta, d = eta (c / eta - sqrt(k2)) in a
         # rationalized form whose sign is exact near eta = 1 (it is 0 at eta = 1)
-        zt = (d * cm - p.mu) / p.eta
+        # (times 1 / eta: one division per texel where the nodes' code is unrolled, not one each)
+        zt = (d * cm - p.mu) * (wp.float64(1.0) / p.eta)
         g = zero
         if zt < zero:
             g = smith_G_over_cos_i_to(p.mu, p.li, -zt, p.alpha, p.dist, p.shadowing) * jac

@@ -55,10 +55,11 @@ def fresnel_dielectric_refract(cos_i: Any, eta: Any):
     """(F, d, refracts): the exact dielectric Fresnel and the refraction through the same facet.
 
     ``cos_i`` = i.m > 0, ``eta`` = eta_t / eta_i. With c = min(cos_i, 1), e = (eta - 1)(eta + 1)
-    and g = sqrt(e + c^2) (Walter et al. 2007 eq. 22) one division q = 1 / (g + c) gives
-    both (issue 14):
+    and g = sqrt(e + c^2) (Walter et al. 2007 eq. 22) the division q = 1 / (g + c) serves
+    both (issue 14), and b's own division does not wait for it:
 
-    * F = a^2 (1 + b^2) / 2 with a = (g - c) / (g + c) = e q^2 and b = (c (g + c) - 1) / (c e q + 1):
+    * F = a^2 (1 + b^2) / 2 with a = (g - c) / (g + c) = e q^2 and b = (c (g + c) - 1) / (c e q + 1)
+      = (c (g + c) - 1)(g + c) / (g + c eta^2):
       :func:`fresnel_dielectric`'s value without its cancellation in g - c near eta = 1;
     * the refracted direction o_t = d' m - i / eta (Walter eq. 40) has
       d' = c / eta - sqrt(k2) = -e q / eta (sqrt(k2) = g / eta); returned as d = -e q = eta d'.
@@ -80,8 +81,10 @@ def fresnel_dielectric_refract(cos_i: Any, eta: Any):
     # g + c > 0: g2 > 0 here
     q = one / (g + c)
     a = e * q * q
-    # c e q + 1 = c (g - c) + 1 >= 1 - c^2 + c g > 0 (g > 0)
-    b = (c * (g + c) - one) / (c * e * q + one)
+    # b's denominator c e q + 1 = c (g - c) + 1 times g + c is g + c eta^2 (1 + e = eta^2): a sum
+    # of positive terms, so b = (c (g + c) - 1)(g + c) / (g + c eta^2) divides apart from q (the
+    # two divisions run side by side instead of one after the other; issue 14, ninth round)
+    b = (c * (g + c) - one) * (g + c) / (g + c * (eta * eta))
     return type(eta)(0.5) * a * a * (one + b * b), -e * q, True
 
 
