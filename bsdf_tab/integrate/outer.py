@@ -7,7 +7,12 @@ crossings) and where two thresholds cross inside it (the transmission floor swit
 the horizon root to c_TIR; the reflection horizon crossing the critical i.m, issue 14 round 6).
 Each piece between them is cut into equal parts in theta_m and in v (the floor), and the
 longest run of last intervals whose rigorous mass bound fits in ``bound_share`` of the budget
-is left out (:func:`bsdf_tab.integrate.integrand.mass_bound`).
+is left out (:func:`bsdf_tab.integrate.integrand.mass_bound`). At loose tolerances the floor
+gives way to two cuts where o_r.n = kappa alpha at phi = pi and phi = 0 (issue 14, round 9):
+between each cut and its horizon breakpoint lies the Smith G1(o_r) ramp, which at mu ~ 1 and
+small alpha sits in the v map's tail, narrower than the nodes' spacing. Not for dielectric
+texels with eta < 1: their transmission horizon has a G1(o_t) ramp of its own, without a
+closed-form cut (a scan at 1e-3 found one texel dishonest there).
 
 The outer rules then work in a piece coordinate w in [0, ne]: piece k = floor(w) of the initial
 ends, and t = w - k mapped by the smoothstep v = v_k + (v_k+1 - v_k)(3 t^2 - 2 t^3) (issue 14,
@@ -60,9 +65,15 @@ def v_of_w(x: OuterX, w: wp.float64):
 
 @wp.func
 def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed: wp.int32,
-                 max_dtheta: wp.float64, max_piece: wp.float64, bound_share: wp.float64):
+                 max_dtheta_in: wp.float64, max_piece_in: wp.float64, bound_share: wp.float64,
+                 ramp_kappa: wp.float64):
     """(ends, ne, skip): the initial outer intervals [ends[q], ends[q + 1]], q < ne, in v, and the
-    mass bound of the D tail left out beyond ends[ne] (0 when nothing is left out)."""
+    mass bound of the D tail left out beyond ends[ne] (0 when nothing is left out).
+
+    ``ramp_kappa`` > 0 (loose tolerances): cuts where o_r.n = kappa alpha at phi = pi and at
+    phi = 0, theta_m = (acos(kappa alpha) -+ theta_i) / 2, each just inside a horizon
+    breakpoint, and no floor (``max_dtheta``, ``max_piece``) -- except for dielectric texels
+    with eta < 1, whose transmission horizon has a G1 ramp of its own (module docstring)."""
     zero = wp.float64(0.0)
     one = wp.float64(1.0)
     # outer breakpoints in theta_m where the phi pieces change (module docstring)
@@ -75,18 +86,30 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
     cands[1] = hp - theta_i
     cands[2] = wp.float64(0.5) * (hp + theta_i)
     ncand = int(3)
+    max_dtheta = max_dtheta_in
+    max_piece = max_piece_in
+    if ramp_kappa > zero and not (mode == MODE_DIELECTRIC and p.eta < one):
+        max_dtheta = zero
+        max_piece = one
+        k_a = ramp_kappa * p.alpha
+        if k_a < one:
+            # the reflected direction's G1 ramp (o_r.n from 0 to ~alpha): in its own interval
+            ak = wp.acos(k_a)
+            cands[3] = wp.float64(0.5) * (ak - theta_i)
+            cands[4] = wp.float64(0.5) * (ak + theta_i)
+            ncand = 5
     if tir_eta(p) < one:
         # the critical angle (dielectric mode, or reflection with a dielectric Fresnel)
         theta_c = wp.acos(wp.sqrt(one - tir_eta(p) * tir_eta(p)))
-        cands[3] = wp.abs(theta_i - theta_c)
-        cands[4] = theta_i + theta_c
-        ncand = 5
+        cands[ncand] = wp.abs(theta_i - theta_c)
+        cands[ncand + 1] = theta_i + theta_c
+        ncand += 2
         # where the reflection horizon i.m = mu / (2 cos theta_m) crosses the critical i.m
         # (the kink of F leaves the reflected support): cos theta_m = mu / (2 cos theta_c)
         ch = p.mu / (wp.float64(2.0) * wp.sqrt(one - tir_eta(p) * tir_eta(p)))
         if ch < one:
-            cands[5] = wp.acos(ch)
-            ncand = 6
+            cands[ncand] = wp.acos(ch)
+            ncand += 1
     if mode == MODE_DIELECTRIC and p.eta < one:
         # where the transmitted set (i.m above its floor, see _inner) appears or fills the whole
         # phi circle: no closed form, so locate sign changes on a grid and bisect

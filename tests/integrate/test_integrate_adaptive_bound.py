@@ -214,7 +214,10 @@ def tail_texels():
         else:
             r = ref.dielectric(mu, alpha, eta, dname, sname)
             rv, re = [r[0].value, r[1].value], [r[0].err, r[1].err]
-        kw = {"dist": dist, "shadowing": shad, "tol": tol}
+        # on the floor's initial intervals (ramp_cut 0): the default start at tolerances >= 1e-3
+        # (the G1 ramp cuts, issue 14 round 9) has fewer, longer ones, where a left-out tail
+        # may be inside a longer interval and save nothing
+        kw = {"dist": dist, "shadowing": shad, "tol": tol, "ramp_cut": 0.0}
         if fres is not None and fres[0] != "one":
             kw.update(ftype=FRESNELS[fres[0]], fp0=fres[1], fp1=fres[2] if len(fres) > 2 else 0.0)
         out = {}
