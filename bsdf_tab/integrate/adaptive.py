@@ -113,13 +113,15 @@ from .quadrature import (
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
-# no kernel of this module is differentiated: no adjoint code (a third of the compile time)
-wp.set_module_options({"enable_backward": False})
-# multiply-adds fused on the CPU too (CUDA fuses by default): Warp's generated C++ puts every
+# no kernel of this module is differentiated: no adjoint code (a third of the compile time).
+# Multiply-adds fused on the CPU too (CUDA fuses by default): Warp's generated C++ puts every
 # operation in its own statement, where clang's default contraction does not reach, so the
 # integrand's chains ran as separate multiplies and adds. Fused: 9-17% less time on the core
 # tables (issue 14, ninth round); values move by a few ulp, the harness stays honest
-wp.set_module_options({"cpu_compiler_flags": (wp.config.cpu_compiler_flags or "-march=native") + " -ffp-contract=fast"})
+wp.set_module_options({
+    "enable_backward": False,
+    "cpu_compiler_flags": (wp.config.cpu_compiler_flags or "-march=native") + " -ffp-contract=fast",
+})
 
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
@@ -242,7 +244,7 @@ def texel_kernel(
     outer_first: wp.int32,
     outer_first_safety: wp.float64,
     inner_map: wp.int32,
-    ramp_kappa: wp.float64,
+    ramp_cut: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -269,7 +271,7 @@ def texel_kernel(
     # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
     # most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * PI64
-    ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share, ramp_kappa)
+    ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share, ramp_cut)
     tol_in = inner_share * (tol_total - skip)
 
     ox = OuterX()

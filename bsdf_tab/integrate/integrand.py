@@ -238,9 +238,9 @@ def cos_0_pi(x: wp.float64):
     range reduction for any x) was ~17% of the kernel's time (issue 14, fifth round). Reduced
     to |y| <= pi/4 by cos x = sin(pi/2 - x) and -cos(pi - x), with pi/2 and pi in two parts
     (pi/2 - x and pi - x are exact in float64 where they are used: Sterbenz), then Taylor
-    polynomials of degree 16 / 17. Without branches (issue 14, ninth round): both polynomials
-    are evaluated and the reduction and the result are selected, because a rule's nodes move
-    between the three ranges from one evaluation to the next and the branches mispredicted.
+    polynomials of degree 16 / 17, evaluated by Estrin's scheme (issue 14, ninth round: a
+    shorter chain of dependent operations than Horner's; a branch-free form that evaluates both
+    polynomials and selects measured slower).
     """
     one = wp.float64(1.0)
     if x <= wp.float64(0.7853981633974483):

@@ -66,11 +66,11 @@ def v_of_w(x: OuterX, w: wp.float64):
 @wp.func
 def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed: wp.int32,
                  max_dtheta_in: wp.float64, max_piece_in: wp.float64, bound_share: wp.float64,
-                 ramp_kappa: wp.float64):
+                 ramp_cut: wp.float64):
     """(ends, ne, skip): the initial outer intervals [ends[q], ends[q + 1]], q < ne, in v, and the
     mass bound of the D tail left out beyond ends[ne] (0 when nothing is left out).
 
-    ``ramp_kappa`` > 0 (loose tolerances): cuts where o_r.n = kappa alpha at phi = pi and at
+    ``ramp_cut`` = kappa > 0 (loose tolerances): cuts where o_r.n = kappa alpha at phi = pi and at
     phi = 0, theta_m = (acos(kappa alpha) -+ theta_i) / 2, each just inside a horizon
     breakpoint, and no floor (``max_dtheta``, ``max_piece``) -- except for dielectric texels
     with eta < 1, whose transmission horizon has a G1 ramp of its own (module docstring)."""
@@ -88,10 +88,10 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
     ncand = int(3)
     max_dtheta = max_dtheta_in
     max_piece = max_piece_in
-    if ramp_kappa > zero and not (mode == MODE_DIELECTRIC and p.eta < one):
+    if ramp_cut > zero and not (mode == MODE_DIELECTRIC and p.eta < one):
         max_dtheta = zero
         max_piece = one
-        k_a = ramp_kappa * p.alpha
+        k_a = ramp_cut * p.alpha
         if k_a < one:
             # the reflected direction's G1 ramp (o_r.n from 0 to ~alpha): in its own interval
             ak = wp.acos(k_a)
