@@ -16,7 +16,8 @@ from __future__ import annotations
 import warp as wp
 
 from .integrand import (
-    MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, insert_sorted, integrand_cos, integrand_phi, phi_of_c, tir_eta,
+    MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, fresnel_knee, insert_sorted, integrand_cos, integrand_phi, phi_of_c,
+    tir_eta,
 )
 from .quadrature import (
     WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
@@ -144,6 +145,10 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
     elif tir_eta(p) < one:
         # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
         cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
+        ncand = 3
+    elif fresnel_knee(p) > zero:
+        # eta just above 1: the Fresnel's knee (mapped as the critical cut is)
+        cands[2] = fresnel_knee(p)
         ncand = 3
     phi_crit = wp.float64(-1.0)
     # the cuts' i.m, in the same order (i.m falls as phi grows): -i.m sorted with them

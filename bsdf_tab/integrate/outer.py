@@ -27,7 +27,8 @@ import warp as wp
 
 from ..model.distribution import dcos_v_of_theta
 from .integrand import (
-    HALF_PI64, MODE_DIELECTRIC, TexelParams, insert_sorted, mass_bound, tir_eta, transmission_breaks, vec24d,
+    HALF_PI64, MODE_DIELECTRIC, TexelParams, fresnel_knee, insert_sorted, mass_bound, tir_eta, transmission_breaks,
+    vec24d,
 )
 from .quadrature import end_map
 
@@ -110,6 +111,12 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
         if ch < one:
             cands[ncand] = wp.acos(ch)
             ncand += 1
+    if fresnel_knee(p) > zero:
+        # eta just above 1: where the extreme i.m crosses the Fresnel knee sqrt(eta^2 - 1)
+        theta_k = wp.acos(fresnel_knee(p))
+        cands[ncand] = wp.abs(theta_i - theta_k)
+        cands[ncand + 1] = theta_i + theta_k
+        ncand += 2
     if mode == MODE_DIELECTRIC and p.eta < one:
         # where the transmitted set (i.m above its floor, see _inner) appears or fills the whole
         # phi circle: no closed form, so locate sign changes on a grid and bisect

@@ -171,6 +171,36 @@ def test_dielectric_regimes(method, eta, truth):
     _check_honest(v, e, tv, te, 2, f"{method} dielectric eta={eta}")
 
 
+def _check_within(v, e, nch):
+    # finite, and in [0, 1] up to the reported error (at mu = 0 a loose tolerance gives E = 1 + a
+    # few ulp, as the floor's start gave 1 + 1e-9 there: both within their error channels)
+    assert np.isfinite(v).all() and np.isfinite(e).all() and (e >= 0).all()
+    assert (v[:, :nch] >= -e[:, :nch]).all() and (v[:, :nch] <= 1 + e[:, :nch]).all()
+    assert (v[:, :nch].sum(axis=1) <= 1 + e[:, :nch].sum(axis=1) + 1e-12).all()
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3])
+def test_adaptive_loose_start_regimes(tol, truth):
+    """The adaptive method's start at tolerances >= 1e-3 (the G1 ramp cuts instead of the floor,
+    issue 14 round 9; ``ramp_cut=0`` is the floor) on the same regimes: honest, and no more than
+    the tolerance reported where the reference is validated."""
+    for dist in DISTS:
+        for shad in SHADS:
+            mu, alpha, _ = _grid()
+            v, e = _run("adaptive", "reflect", mu, alpha, dist=dist, shadowing=shad, tol=tol)
+            _check_within(v, e, 1)
+            tv, te = truth("reflect", dist, shad)
+            _check_honest(v, e, tv, te, 1, f"adaptive tol={tol} albedo dist={dist} shad={shad}")
+            assert (e[alpha >= REF_MIN_ALPHA, 0] <= tol).all()
+    for eta in ETA:
+        mu, alpha, etas = _grid(eta)
+        v, e = _run("adaptive", "dielectric", mu, alpha, etas, tol=tol)
+        _check_within(v, e, 2)
+        tv, te = truth("dielectric", DISTRIBUTIONS["ggx"], SHADOWINGS["correlated"], eta)
+        _check_honest(v, e, tv, te, 2, f"adaptive tol={tol} dielectric eta={eta}")
+        assert (e[alpha >= REF_MIN_ALPHA] <= tol).all()
+
+
 @pytest.mark.parametrize("method", ALL)
 def test_total_internal_reflection(method):
     """eta < 1 beyond the critical angle, smooth-ish surface: T = 0, R = 1 - shadowing loss."""

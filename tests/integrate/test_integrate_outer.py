@@ -163,3 +163,16 @@ def test_ramp_cut_start_is_cheaper_than_the_floor_and_only_at_loose_tolerances()
     assert np.array_equal(c1, c2) and np.array_equal(v1, v2)
     with pytest.raises(ValueError, match="ramp_cut"):
         integrate_texels("reflect", mu[:1], alpha[:1], tol=1e-3, ramp_cut=-1.0)
+
+
+@pytest.mark.parametrize("mu, alpha, channel", [(1.0, 2.0, 1), (0.0, 1.0, 0), (0.0, 2.0, 0)])
+def test_fresnel_knee_near_eta_one_is_cut(mu, alpha, channel):
+    # eta = 1 + 1e-6: F rises to 1 below i.m = sqrt(eta^2 - 1) = 1.4e-3, a knee in the v map's
+    # tail. Without cuts there (issue 14, ninth round's review) T(mu = 1, alpha = 2) was 5.0e-7
+    # off with 2.9e-8 reported at 5e-7, and R(mu = 0) 2x under-reported at 1e-3
+    eta = 1.0 + 1e-6
+    r = ref.dielectric(mu, alpha, eta, GGX, CORRELATED)
+    for tol in (1e-3, 1e-5, 5e-7):
+        v, e = integrate_texels("dielectric", [mu], [alpha], [eta], dist=GGX, shadowing=CORRELATED, tol=tol)
+        assert (_ratios(v, e, r) <= 1.0).all(), (tol, v, e, r)
+    assert abs(v[0, channel] - r[channel].value) < 1e-8
