@@ -16,7 +16,7 @@ from __future__ import annotations
 import warp as wp
 
 from .integrand import (
-    MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, fresnel_knee, insert_sorted, integrand_cos, integrand_phi, phi_of_c,
+    MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, fresnel_knee, integrand_cos, integrand_phi, phi_of_c,
     tir_eta,
 )
 from .quadrature import (
@@ -28,6 +28,8 @@ from .quadrature import (
 wp.set_module_options({"enable_backward": False})
 
 vec6d = wp.types.vector(length=6, dtype=wp.float64)
+# an absent cut: below every i.m of the phi circle (i.m >= -1)
+NO_CUT = wp.constant(wp.float64(-2.0))
 
 
 # inlined into gk_phi (its two calls): out of line it took p, x, f0 and f1 by value, ~0.5 KB
@@ -118,53 +120,61 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
         return f * pi, err, int(1), int(0)  # one evaluation
     c_min = p.mu * cm - ss
     c_max = p.mu * cm + ss
-    cuts = vec6d()
-    nc = int(0)
-    cands = vec6d()
-    ncand = int(0)
-    cands[0] = zero
-    cands[1] = p.mu / (wp.float64(2.0) * cm)
-    ncand = 2
+    # the candidate thresholds on i.m (k2, k3 = NO_CUT where absent): i.m = 0, the reflection
+    # horizon, then the critical (or knee) i.m and the transmission horizon
+    k0 = zero
+    k1 = p.mu / (wp.float64(2.0) * cm)
+    k2 = NO_CUT
+    k3 = NO_CUT
     # lowest i.m where transmission exists (eta < 1): c_TIR, or the transmission horizon c_t
     # where (c/eta - sqrt(k2)) cos(theta_m) = mu/eta (that root is valid only if c_t >= mu/cm)
     t_floor = zero
     if p.mode == MODE_DIELECTRIC and p.eta < one:
         e2 = one - p.eta * p.eta
-        cands[2] = wp.sqrt(e2)
-        ncand = 3
-        t_floor = cands[2]
+        k2 = wp.sqrt(e2)
+        t_floor = k2
         if p.mu > zero:
             c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
             if c_t * cm >= p.mu:
-                cands[3] = c_t
-                ncand = 4
+                k3 = c_t
                 t_floor = c_t
         else:
             # grazing from inside: o_t.n = (c/eta - sqrt(k2)) cos(theta_m) > 0, never transmitted
             t_floor = wp.float64(2.0)
     elif tir_eta(p) < one:
         # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
-        cands[2] = wp.sqrt(one - tir_eta(p) * tir_eta(p))
-        ncand = 3
+        k2 = wp.sqrt(one - tir_eta(p) * tir_eta(p))
     elif fresnel_knee(p) > zero:
         # eta just above 1: the Fresnel's knee (mapped as the critical cut is)
-        cands[2] = fresnel_knee(p)
-        ncand = 3
+        k2 = fresnel_knee(p)
+    # the cuts in phi order: i.m falls as phi grows, so sort the i.m descending, in scalars (a
+    # sorting network: insertion into vectors by value cost ~5% of a loose-tolerance table in
+    # store-forwarding stalls, issue 14, tenth round); the phi of each one inside (c_min, c_max)
+    s0 = wp.max(k0, k1)
+    s1 = wp.min(k0, k1)
+    s2 = wp.max(k2, k3)
+    s3 = wp.min(k2, k3)
+    h0 = wp.max(s0, s2)
+    l2 = wp.min(s0, s2)
+    h1 = wp.max(s1, s3)
+    l3 = wp.min(s1, s3)
+    sorted_c = wp.vec4d(h0, wp.max(l2, h1), wp.min(l2, h1), l3)
+    cuts = vec6d()
+    cuts_c = vec6d()  # the cuts' i.m, in the same order
+    nc = int(0)
     phi_crit = wp.float64(-1.0)
-    # the cuts' i.m, in the same order (i.m falls as phi grows): -i.m sorted with them
-    cuts_c = vec6d()
-    for q in range(ncand):
-        cb = cands[q]
+    for q in range(4):
+        cb = sorted_c[q]
         if cb > c_min and cb < c_max:
             phc = phi_of_c(cb, p, cm, sm)
-            if q == 2:
+            if cb == k2:
                 phi_crit = phc
-            cuts = insert_sorted(cuts, nc, phc)
-            cuts_c = insert_sorted(cuts_c, nc, -cb)
+            cuts[nc] = phc
+            cuts_c[nc] = cb
             nc += 1
     # below c_floor every channel vanishes: reflection needs i.m > mu / (2 cos theta_m), and
     # transmission i.m > 0 (eta >= 1) or i.m above the transmission horizon (eta < 1)
-    c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(cands[1], t_floor), cands[1])
+    c_floor = wp.where(p.mode == MODE_DIELECTRIC, wp.min(k1, t_floor), k1)
     a = zero
     c_a = c_max  # i.m at the piece's start a (the cut's own value: no cos(acos(.)) round trip)
     rules = int(0)
@@ -193,5 +203,5 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
             rules_ref += used_ref
         a = b
         if q < nc:
-            c_a = -cuts_c[q]
+            c_a = cuts_c[q]
     return total, err, rules, rules_ref
