@@ -252,6 +252,49 @@ def cos_0_pi(x: wp.float64):
     return -(one + y * y * _estrin8(y * y, COS_C))
 
 
+# asin(y) = y + y z R(z), z = y^2: R on z in [0, 1/4] by a polynomial of degree 11 (the Chebyshev
+# interpolant of R at 12 nodes, from mpmath at 50 digits; |x| <= 1/2 uses it at z = x^2, the
+# rest at z = (1 - |x|) / 2 through acos(x) = 2 asin(sqrt(z)))
+_ASIN_R = [0.1666666666666665, 0.07500000000020764, 0.044642857103423646, 0.03038194736709848,
+           0.02237204763174451, 0.017355259955786323, 0.013929652902326633, 0.011875494382636922,
+           0.0078029494773533175, 0.01603551434914882, -0.010749050339697808, 0.028169218060881414]
+ASIN_R_LO = wp.constant(_vec8d(*_ASIN_R[:8]))
+ASIN_R_HI = wp.constant(wp.types.vector(length=4, dtype=wp.float64)(*_ASIN_R[8:]))
+
+
+@wp.func
+def acos_poly(x: wp.float64):
+    """acos(x) for x in [-1, 1], within 1 ulp of the exact value (tested against mpmath).
+
+    The inner level's cuts need one acos each, per outer node: libm's acos was ~7% of a
+    loose-tolerance table's time (issue 14, tenth round). fdlibm's reduction (|x| <= 1/2:
+    pi/2 - asin(x); beyond: 2 asin(sqrt((1 - |x|) / 2)), and pi minus that for x < 0) with one
+    polynomial for (asin(y) - y) / y^3 in z = y^2 <= 1/4 (``_ASIN_R``), by Estrin's scheme.
+    Outside [-1, 1] (and nan) the value is nan, as acos's.
+    """
+    one = wp.float64(1.0)
+    half = wp.float64(0.5)
+    ax = wp.abs(x)
+    if ax > one or x != x:
+        # outside acos's domain (nan stays nan)
+        return wp.float64(wp.nan)
+    z = ax * ax
+    y = ax
+    big = ax > half
+    if big:
+        z = (one - ax) * half
+        y = wp.sqrt(z)
+    z4 = (z * z) * (z * z)
+    hi = (ASIN_R_HI[0] + ASIN_R_HI[1] * z) + (ASIN_R_HI[2] + ASIN_R_HI[3] * z) * (z * z)
+    r = y + y * (z * (_estrin8(z, ASIN_R_LO) + hi * (z4 * z4)))
+    pos = (PIO2_HI - r) + PIO2_LO  # acos(|x|)
+    if big:
+        pos = r + r
+    if x < wp.float64(0.0):
+        return (PI_HI - pos) + PI_LO
+    return pos
+
+
 @wp.func
 def integrand_cos(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float64, cp: wp.float64):
     """:func:`integrand_phi` at the azimuth whose cosine is ``cp`` (the inner rule forms the
@@ -417,7 +460,7 @@ def o_terms(p: TexelParams, o: wp.vec3d):
 def phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
     """The phi in [0, pi] where i.m = sin_i sin(theta_m) cos(phi) + mu cos(theta_m) equals ``cb``."""
     x = (cb - p.mu * cm) / (p.sin_i * sm)
-    return wp.acos(wp.clamp(x, wp.float64(-1.0), wp.float64(1.0)))
+    return acos_poly(wp.clamp(x, wp.float64(-1.0), wp.float64(1.0)))
 
 
 @wp.func
