@@ -10,7 +10,8 @@ from typing import Any
 
 import warp as wp
 
-from .distribution import GGX, lambda_cos
+from .beckmann import beckmann_lambda_cos
+from .distribution import BECKMANN, GGX, lambda_cos
 from .ggx import ggx_lambda_root
 
 SHADOWINGS = {"separable": 0, "correlated": 1}
@@ -47,7 +48,9 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
     integrand that knows Lambda_i once per texel. For GGX it is formed from the root
     r = sqrt(zo^2 + alpha^2 (1 - zo^2)) = zo (1 + 2 Lambda_o) with one division (issue 14):
     correlated G / zi = 2 zo / (zo (zi + 2 li) + zi r), separable 2 zo / ((zi + li)(zo + r)),
-    sums of non-negative terms (no cancellation); other distributions use their lambda_cos.
+    sums of non-negative terms (no cancellation). Beckmann forms lo = lambda_cos(zo) only where
+    a = zo / (alpha sin_o) < 6 (beyond, Lambda_o < 2e-19 changes no bit of G); other distributions
+    use their lambda_cos.
     """
     zero = zi * type(zi)(0.0)
     den = zero
@@ -57,6 +60,20 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
             den = zo * (zi + type(zi)(2.0) * li) + zi * r
         else:
             den = (zi + li) * (zo + r)
+    elif dist == BECKMANN:
+        # lo = zo Lambda_o; where a = zo / (alpha sin_o) >= 6 (zo^2 >= 36 alpha^2 (1 - zo^2), tested
+        # before the root and the division) Lambda_o = ierfc(a) / (2 a) < 2e-19: lo = 0 changes
+        # no bit of den, whose other terms are zi zo (1 + Lambda_i) or zo (zi + li)
+        lo = zero
+        z2 = zo * zo
+        if z2 < type(zi)(36.0) * alpha * alpha * (type(zi)(1.0) - z2):
+            lo = beckmann_lambda_cos(zo, alpha)
+        if shadowing == CORRELATED:
+            den = zo * (zi + li) + zi * lo
+        else:
+            den = (zi + li) * (zo + lo)
+        if den > zero:
+            return zo / den
     if den <= zero:
         # another distribution, or GGX with alpha = 0 at grazing (the mirror value and its guard)
         return smith_G_over_cos_i_from_lambda(zi, li, zo, lambda_cos(zo, alpha, dist), shadowing)

@@ -192,6 +192,12 @@ def test_smith_G_over_cos_i_to_against_lambda(dist, shad):
     zi = np.concatenate([rng.uniform(0.0, 1.0, n), [0.0, 1e-6, 1.0, 0.5, 0.5, 1e-6]])
     zo = np.concatenate([rng.uniform(0.0, 1.0, n // 2), 10 ** rng.uniform(-6, 0, n - n // 2), [0.5, 0.5, 1e-6, 0.0, 1.0, 1e-6]])
     al = np.concatenate([10 ** rng.uniform(-6, math.log10(4.0), n), [4.0, 1e-6, 4.0, 0.2, 1e-6, 4.0]])
+    # around Beckmann's a = zo / (alpha sin_o) = 6, where the integrand's form stops forming Lambda_o
+    for alpha in (0.01, 0.3, 2.0):
+        z6 = 6.0 * alpha / math.sqrt(1.0 + 36.0 * alpha * alpha)
+        zo = np.concatenate([zo, [np.nextafter(z6, 0.0), z6, np.nextafter(z6, 1.0), 0.999 * z6, 1.001 * z6]])
+        zi = np.concatenate([zi, [0.3, 0.7, 1e-3, 1.0, 0.05]])
+        al = np.concatenate([al, [alpha] * 5])
     li = np.array([float(_lc_ref(dist, a, b)) for a, b in zip(zi, al)])
     got = _run(_k_g, zi.size, zi, li, zo, al, DISTRIBUTIONS[dist], SHADOWINGS[shad])
     for j in range(zi.size):
