@@ -190,9 +190,11 @@ def _c_double(v: float) -> str:
 
 
 def _poly_c(n: int, x: str, c: str) -> str:
-    # sum_j c[j] x^j, j < n (n = 10, 12 or 16), by Estrin's scheme, as one C expression (x2 and x4
+    # sum_j c[j] x^j, j < n (n = 8, 10, 12 or 16), by Estrin's scheme, as one C expression (x2 and x4
     # are the snippet's)
     quad = [f"(({c}[{j}] + {c}[{j + 1}] * {x}) + ({c}[{j + 2}] + {c}[{j + 3}] * {x}) * x2)" for j in range(0, n - 3, 4)]
+    if n == 8:
+        return f"({quad[0]} + {quad[1]} * x4)"
     if n == 10:
         return f"(({quad[0]} + {quad[1]} * x4) + ({c}[8] + {c}[9] * {x}) * (x4 * x4))"
     if n == 12:
@@ -200,13 +202,13 @@ def _poly_c(n: int, x: str, c: str) -> str:
     return f"(({quad[0]} + {quad[1]} * x4) + ({quad[2]} + {quad[3]} * x4) * (x4 * x4))"
 
 
-# ierfc(a) for float64 a >= 0 as native code: one table look-up instead of a tree of branches
-# (the pieces' branches mispredicted at the inner rule's nodes, whose a jumps about: ~15 ns of
-# a Beckmann Lambda's ~30 ns, issue 14), and no exp below a = 6 (the pieces are of ierfc itself)
-_IERFC_SNIPPET = f"""
-if (a >= 0.0 && a < {_c_double(IERFC_A_MAX)}) {{
-    static const double P[{len(IERFC_PIECES)}][{len(IERFC_PIECES[0])}] = {{
-{",".join("{" + ",".join(_c_double(v) for v in row) + "}" for row in IERFC_PIECES)}
+def _pieces_c(n: int) -> str:
+    # the body of "a in [0, IERFC_A_MAX)": row k = floor(32 a) of the pieces, its first n
+    # coefficients (a polynomial of degree n - 1 in x on [-1, 1])
+    rows = ",".join("{" + ",".join(_c_double(v) for v in row[:n]) + "}" for row in IERFC_PIECES)
+    return f"""
+    static const double P[{len(IERFC_PIECES)}][{n}] = {{
+{rows}
     }};
     int k = (int)(a * {_c_double(IERFC_PER_UNIT)});
     const double* c = P[k];
@@ -214,7 +216,14 @@ if (a >= 0.0 && a < {_c_double(IERFC_A_MAX)}) {{
     double x = {_c_double(2 * IERFC_PER_UNIT)} * a - (double)(2 * k + 1);
     double x2 = x * x;
     double x4 = x2 * x2;
-    return {_poly_c(len(IERFC_PIECES[0]), "x", "c")};
+    return {_poly_c(n, "x", "c")};"""
+
+
+# ierfc(a) for float64 a >= 0 as native code: one table look-up instead of a tree of branches
+# (the pieces' branches mispredicted at the inner rule's nodes, whose a jumps about: ~15 ns of
+# a Beckmann Lambda's ~30 ns, issue 14), and no exp below a = 6 (the pieces are of ierfc itself)
+_IERFC_SNIPPET = f"""
+if (a >= 0.0 && a < {_c_double(IERFC_A_MAX)}) {{{_pieces_c(len(IERFC_PIECES[0]))}
 }}
 double a2 = a * a;
 if (a2 > 708.0) {{
@@ -232,11 +241,44 @@ double lo = fma(a, a, -a2);
 return (wp::exp(-a2) * (1.0 - lo)) * (u * {_poly_c(12, "x", "T")});
 """
 
+# ierfc(a) to 1.2e-16 absolute (not relative: ierfc(6) = 1.8e-18) for a Smith G: the first 8
+# coefficients of the same pieces (the last two are below 1.2e-17 and 7e-20 on every piece; the
+# tested error is the full table's), and 0 from a = 6 on. Lambda = ierfc(a) / (2 a) then has an
+# error below 2e-16 (1 + Lambda), as with all ten: a shorter chain for the integrand's G
+_IERFC_ABS_SNIPPET = f"""
+if (a >= 0.0 && a < {_c_double(IERFC_A_MAX)}) {{{_pieces_c(8)}
+}}
+return 0.0;
+"""
+
 
 # d ierfc / da = -erfc(a): the adjoint, for users' differentiable kernels
 @wp.func_native(_IERFC_SNIPPET, adj_snippet="adj_a += -wp::erfc(a) * adj_ret;")
 def _ierfc_native(a: wp.float64) -> wp.float64:
     ...
+
+
+@wp.func_native(_IERFC_ABS_SNIPPET, adj_snippet="adj_a += -wp::erfc(a) * adj_ret;")
+def beckmann_ierfc_abs(a: wp.float64) -> wp.float64:
+    """ierfc(a) to 1.2e-16 absolute for float64 a >= 0 (0 from a = 6 on, and for nan): what a
+    Smith G needs of it (:func:`beckmann_lambda_cos_abs`), by a shorter polynomial of the same
+    pieces as :func:`beckmann_ierfc`, whose error is relative."""
+    ...
+
+
+@wp.func
+def beckmann_lambda_cos_abs(cos_theta_v: wp.float64, alpha: wp.float64):
+    """|cos| Lambda(v) as :func:`beckmann_lambda_cos`, with an error below 6e-17 alpha sin(theta_v)
+    (:func:`beckmann_ierfc_abs`) plus a few ulp of |cos| + |cos| Lambda: for a Smith G, where it
+    is added to |cos| (1 + Lambda_i) and relative accuracy of a tiny Lambda buys nothing (the
+    adaptive integrand's form, issue 14)."""
+    zero = wp.float64(0.0)
+    z = wp.abs(cos_theta_v)
+    s = wp.sqrt(wp.max(zero, wp.float64(1.0) - z * z))
+    if s * alpha <= zero:
+        # normal incidence or mirror: no shadowing
+        return zero
+    return alpha * s * wp.float64(0.5) * beckmann_ierfc_abs(z / (alpha * s))
 
 
 @wp.func

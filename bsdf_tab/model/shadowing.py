@@ -10,7 +10,7 @@ from typing import Any
 
 import warp as wp
 
-from .beckmann import beckmann_lambda_cos
+from .beckmann import beckmann_lambda_cos_abs
 from .distribution import BECKMANN, GGX, lambda_cos
 from .ggx import ggx_lambda_root
 
@@ -48,9 +48,9 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
     integrand that knows Lambda_i once per texel. For GGX it is formed from the root
     r = sqrt(zo^2 + alpha^2 (1 - zo^2)) = zo (1 + 2 Lambda_o) with one division (issue 14):
     correlated G / zi = 2 zo / (zo (zi + 2 li) + zi r), separable 2 zo / ((zi + li)(zo + r)),
-    sums of non-negative terms (no cancellation). Beckmann forms lo = lambda_cos(zo) only where
-    a = zo / (alpha sin_o) < 6 (beyond, Lambda_o < 2e-19 changes no bit of G); other distributions
-    use their lambda_cos.
+    sums of non-negative terms (no cancellation). Beckmann forms lo only where a = zo / (alpha
+    sin_o) < 6 (beyond, Lambda_o < 2e-19 changes no bit of G), with :func:`beckmann_lambda_cos_abs`
+    (its error: a few ulp of zo + lo); other distributions use their lambda_cos.
     """
     zero = zi * type(zi)(0.0)
     den = zero
@@ -67,7 +67,7 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
         lo = zero
         z2 = zo * zo
         if z2 < type(zi)(36.0) * alpha * alpha * (type(zi)(1.0) - z2):
-            lo = beckmann_lambda_cos(zo, alpha)
+            lo = beckmann_lambda_cos_abs(zo, alpha)
         if shadowing == CORRELATED:
             den = zo * (zi + li) + zi * lo
         else:

@@ -5,7 +5,9 @@ coefficients of :mod:`bsdf_tab.model.ierfc_table` in native code. Here the coeff
 refitted (they must be the Chebyshev interpolants the module says they are), the values are
 checked against 40-digit mpmath from the definition exp(-a^2) / sqrt(pi) - a erfc(a) at the piece
 ends, the switch to the tail form, the underflow cut, 0, inf and nan, and the adjoint against
--erfc(a). The generic (float32) overload keeps its own form.
+-erfc(a). The generic (float32) overload keeps its own form. ``beckmann_ierfc_abs`` (8 of the
+same pieces' coefficients, for the integrand's G) against its absolute promise, and the
+``beckmann_lambda_cos_abs`` built on it against z + |cos| Lambda, the sum G adds it to.
 """
 
 import math
@@ -15,7 +17,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from bsdf_tab.model.beckmann import beckmann_ierfc
+from bsdf_tab.model.beckmann import beckmann_ierfc, beckmann_ierfc_abs, beckmann_lambda_cos_abs
 from bsdf_tab.model.ierfc_table import IERFC_A_MAX, IERFC_PER_UNIT, IERFC_PIECES, IERFC_TAIL
 
 EPS = 2.0**-52
@@ -37,6 +39,18 @@ def _k_ierfc32(a: wp.array(dtype=wp.float32), out: wp.array(dtype=wp.float32)):
 def _k_ierfc_grad(a: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
     i = wp.tid()
     out[i] = beckmann_ierfc(a[i])
+
+
+@wp.kernel
+def _k_ierfc_abs(a: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    out[i] = beckmann_ierfc_abs(a[i])
+
+
+@wp.kernel
+def _k_lambda_cos_abs(z: wp.array(dtype=wp.float64), al: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    out[i] = beckmann_lambda_cos_abs(z[i], al[i])
 
 
 def _run(kernel, a, dtype=wp.float64):
@@ -91,6 +105,39 @@ def test_ierfc_float64_limits_and_underflow_cut():
     assert abs(got[1] - float(_ierfc_ref(a[1]))) <= 2.0**-1060
     assert list(got[2:6]) == [0.0, 0.0, 0.0, 0.0]
     assert math.isnan(got[6])
+
+
+def test_ierfc_abs_within_1_2e_16_absolute():
+    # the integrand's G form: 8 of the pieces' 10 coefficients, an absolute promise, 0 from a = 6
+    a = np.concatenate([_points(), [np.inf]])
+    got = _run(_k_ierfc_abs, a)
+    ref = np.array([float(_ierfc_ref(x)) if np.isfinite(x) else 0.0 for x in a])
+    err = np.abs(got - ref)
+    worst = int(np.argmax(err))
+    assert err.max() <= 1.2e-16, f"ierfc_abs({a[worst]!r}) = {got[worst]!r}, mpmath {ref[worst]!r}"
+    assert np.all(got[a >= IERFC_A_MAX] == 0.0)
+    assert _run(_k_ierfc_abs, np.array([np.nan, -1.0])).tolist() == [0.0, 0.0]
+
+
+def test_lambda_cos_abs_error_next_to_cos_plus_lambda():
+    # |cos| Lambda = alpha s ierfc(a) / 2, a = z / (alpha s): ierfc's 1.2e-16 times alpha s / 2, and
+    # a few roundings (the root, the division, the products) relative to z + |cos| Lambda, the sum
+    # G adds it to
+    rng = np.random.default_rng(11)
+    z = np.concatenate([rng.uniform(0.0, 1.0, 1500), 10 ** rng.uniform(-8, 0, 300), [0.0, 1.0, 0.5]])
+    al = np.concatenate([10 ** rng.uniform(-4, math.log10(4.0), 1800), [0.5, 0.5, 0.0]])
+    x = wp.array(z, dtype=wp.float64, device="cpu")
+    y = wp.array(al, dtype=wp.float64, device="cpu")
+    out = wp.zeros(z.size, dtype=wp.float64, device="cpu")
+    wp.launch(_k_lambda_cos_abs, dim=z.size, inputs=[x, y, out], device="cpu")
+    got = out.numpy()
+    for j in range(z.size):
+        with mp.workdps(40):
+            zj, aj = mp.mpf(z[j]), mp.mpf(al[j])
+            s = mp.sqrt(1 - zj * zj)
+            exact = aj * s * _ierfc_ref(zj / (aj * s)) / 2 if aj * s > 0 else mp.mpf(0)
+            tol = 6e-17 * float(aj * s) + 6 * EPS * float(zj + exact)
+        assert abs(got[j] - float(exact)) <= tol, (z[j], al[j], got[j], float(exact))
 
 
 def test_ierfc_float32_keeps_the_generic_form():
