@@ -98,6 +98,10 @@ KIND_OPTION_HOST_SCALE = {"sheen_albedo": {"sheen_shadowing": {"exact": 5.0}},
 AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 
 #: Core-seconds of one adaptive texel at tolerance 1e-3, per integrand family. After issue 14's
+#: tenth round (chunks taken by worker loops, the inner cuts' sort, acos, Beckmann's G), x0.88:
+#: the calibration sweep measured 0.53 (albedo 1e-9), 0.51 (dfg), 0.53 (dielectric 1e-5), 0.51
+#: (albedo_avg) of the ninth round's 25 / 30 / 54 us, where the fixed-effort methods measured
+#: 0.61-0.73 of theirs. After the
 #: ninth round (per-evaluation work and the G1 ramp cuts at loose tolerances), x0.7 / x0.7 / x0.8:
 #: the calibration sweep measured 0.42 (albedo 1e-9), 0.64 (dfg), 0.75 (dielectric 1e-5), 0.72
 #: (albedo_avg) of the seventh round's 35 / 42 / 67 us. After the seventh round (the outer first stage, the inner end maps, carry 2), x0.6 / x0.6 / x0.7: the
@@ -107,7 +111,7 @@ AVG_KINDS = {"albedo_avg", "dielectric_avg"}
 #: 0.47 (dfg), 0.56 (dielectric 1e-5), 0.37 (albedo_avg) of the fifth round's 79 / 94 / 126 us on
 #: a machine where the fixed-effort methods measured 0.64-0.78 of theirs (the fifth round's fit:
 #: the fourth round's 105 / 125 / 210 us x0.75 / x0.75 / x0.6; 190 / 240 / 390 us before it).
-ADAPTIVE_BASE = {"reflect": 2.5e-5, "dfg": 3.0e-5, "dielectric": 5.4e-5}
+ADAPTIVE_BASE = {"reflect": 2.2e-5, "dfg": 2.6e-5, "dielectric": 4.8e-5}
 #: Adaptive cost ~ (1e-3 / tolerance) ** ADAPTIVE_EXPONENT (measured: x9.6 / x12.9 / x10.0 over
 #: 1e-3 .. 1e-11 for reflect / dfg / dielectric; x5.3 before issue 14's fourth round).
 ADAPTIVE_EXPONENT = 0.125
