@@ -5,9 +5,12 @@ disjoint index sets keep W cores busy. Texels are independent, so the result doe
 on the number of workers or on the chunking (tested). On a CUDA device one thread launches
 large chunks instead (:data:`CUDA_CHUNK`), in blocks of :func:`cuda_block_dim` threads.
 
-The worker threads persist: each calling thread keeps one pool per worker count (thread-local,
-so concurrent computations never queue behind each other's chunks), and a program that
-tabulates many small tables (the scene planner: hundreds of calls) starts its threads once.
+The calling thread is one of the W workers; the other W - 1 are pool threads that persist: each
+calling thread keeps one pool per worker count (thread-local, so concurrent computations never
+queue behind each other's chunks), and a program that tabulates many small tables (the scene
+planner: hundreds of calls) starts its threads once. Each worker takes the next chunk in a loop
+(one hand-off between threads per worker, not per chunk), and the chunks shrink towards the end
+so that the workers finish together.
 A forked child drops the pools it inherited (their threads do not exist there).
 """
 
