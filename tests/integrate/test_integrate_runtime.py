@@ -87,3 +87,43 @@ def test_cuda_block_size_follows_the_launch_size(n, sm_count, expected, monkeypa
     assert runtime.cuda_block_dim(n, _FakeCuda(sm_count)) == expected
     monkeypatch.setattr(runtime, "CUDA_BLOCK_DIM", 64)
     assert runtime.cuda_block_dim(n, _FakeCuda(sm_count)) == 64
+
+
+@pytest.mark.parametrize("n", [1, 5, 37, 300, 1031])
+def test_guided_chunks_cover_every_texel_once_and_shrink_to_eight(n):
+    import threading
+
+    sizes, seen = [], []
+    lock = threading.Lock()
+
+    def launch(idx):
+        with lock:
+            sizes.append(idx.shape[0])
+            seen.extend(idx.numpy().tolist())
+
+    run_chunks(n, launch, resolve_device("cpu"), workers=2)
+    assert sorted(seen) == list(range(n))
+    # the first chunk (<= 4 texels) runs alone; the others are at most 32 and, but for the last,
+    # at least 8 texels
+    rest = sorted(sizes)[1:] if len(sizes) > 1 else []
+    assert max(sizes) <= 32 and all(s >= 8 for s in rest[1:])
+
+
+def test_a_launch_failing_in_a_pool_thread_reaches_the_caller():
+    import threading
+
+    caller = threading.get_ident()
+
+    class Boom(Exception):
+        pass
+
+    def launch(idx):
+        if threading.get_ident() != caller:
+            raise Boom()
+        # the calling thread is slow enough for a pool thread to take a chunk
+        import time
+
+        time.sleep(0.002)
+
+    with pytest.raises(Boom):
+        run_chunks(200, launch, resolve_device("cpu"), workers=2, chunk=4)
