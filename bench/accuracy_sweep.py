@@ -32,6 +32,7 @@ accuracy``) runs :func:`main`.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import platform
@@ -189,15 +190,23 @@ def sweep(quick: bool = False, methods=None, out_dir: Path = DEFAULT_OUT, worker
         f"max bound {max(float(r[1].max()) for r in refs.values()):.2g}")
     rows, maps, honest_maps = [], {}, {}
     for method in methods:
-        # warm-up: compile / load the kernels outside the timings
+        # warm-up: compile / load the kernels, and start the worker threads (a few chunks' worth of
+        # texels), outside the timings
         for case in cases:
-            run_method(method, efforts[method][0], case, mu[:2], alpha[:2], np.full(2, case.eta or 1.0), workers, device)
+            run_method(method, efforts[method][0], case, mu[:16], alpha[:16], np.full(16, case.eta or 1.0), workers,
+                       device)
         for effort in efforts[method]:
             for case in cases:
                 eta = np.full(mu.size, case.eta or 1.0)
-                start = time.perf_counter()
-                v, e, evals = run_method(method, effort, case, mu, alpha, eta, workers, device)
-                dt = time.perf_counter() - start
+                # the cyclic collector off while timing (as timeit does): a full collection over the
+                # sweep's growing lists took ~50 ms inside one 3 ms table
+                gc.disable()
+                try:
+                    start = time.perf_counter()
+                    v, e, evals = run_method(method, effort, case, mu, alpha, eta, workers, device)
+                    dt = time.perf_counter() - start
+                finally:
+                    gc.enable()
                 rv, re = refs[case.name]
                 stats, texel_err, texel_honest = _stats(case, v, e, rv, re)
                 bad = ~np.isfinite(v).all() or (v < 0).any() or (v > 1).any()

@@ -139,9 +139,9 @@ def run_chunks(
     pieces = [(0, first)]
     s = first
     while s < n:
-        # guided: towards the end the chunks shrink (a quarter of each worker's share of what is
-        # left, at least 2 texels), so that the workers finish together
-        size = chunk if workers == 1 else max(8, min(chunk, (n - s) // (2 * workers)))
+        # guided: towards the end the chunks shrink (half of each worker's share of what is left,
+        # at least 8 texels or the chunk asked for), so that the workers finish together
+        size = chunk if workers == 1 else max(min(8, chunk), min(chunk, (n - s) // (2 * workers)))
         pieces.append((s, min(n, s + size)))
         s += size
     done = 0
