@@ -103,10 +103,11 @@ def test_guided_chunks_cover_every_texel_once_and_shrink_to_eight(n):
 
     run_chunks(n, launch, resolve_device("cpu"), workers=2)
     assert sorted(seen) == list(range(n))
-    # the first chunk (<= 4 texels) runs alone; the others are at most 32 and, but for the last,
-    # at least 8 texels
+    # the first chunk (<= 4 texels) runs alone; the others are at most the default chunk
+    # (n / 16, 1 .. 32 texels) and, but for the last, at least 8 texels or that chunk
+    chunk = max(1, min(32, -(-n // 16)))
     rest = sorted(sizes)[1:] if len(sizes) > 1 else []
-    assert max(sizes) <= 32 and all(s >= 8 for s in rest[1:])
+    assert max(sizes) <= max(chunk, 4) and all(s >= min(8, chunk) for s in rest[1:])
 
 
 def test_a_launch_failing_in_a_pool_thread_reaches_the_caller():
