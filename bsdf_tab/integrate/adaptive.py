@@ -33,7 +33,10 @@ outer integrand's kinks and half-integer powers sit at the piece ends, where the
 smooth; with the round's other changes -36% evaluations at 5e-7 on the 1634-texel harness).
 The outer rule is two-stage too (issue 14, seventh round): its 7 Gauss nodes first, G7 accepted
 when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 32 |G7 - I5| plus the carried inner estimates fits in the
-interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported).
+interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported):
+``OUTER_FIRST_SPREAD`` = 4 times its even share, at most the whole budget, since the global loop
+still refines until the pieces' estimates sum to the budget (issue 14, tenth round: -4 .. -10%
+evaluations at 1e-3, -2 .. -3% below 1e-4, the harness honest).
 
 Adaptivity is global at both levels (bisect the interval with the largest estimate until the
 sum meets the budget: ``inner_share`` = 0.85 of the tolerance for the inner integrals, the rest
@@ -126,6 +129,7 @@ wp.set_module_options({
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
+OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
@@ -243,6 +247,7 @@ def texel_kernel(
     inner_carry: wp.float64,
     outer_first: wp.int32,
     outer_first_safety: wp.float64,
+    outer_first_spread: wp.float64,
     inner_map: wp.int32,
     ramp_cut: wp.float64,
     value: wp.array2d(dtype=wp.float64),
@@ -283,8 +288,10 @@ def texel_kernel(
     ox.thr = wp.float64(0.0)
     ox.safety = outer_first_safety
     if ne > 0:
-        # the first stage's budget: the texel's, spread evenly over the initial pieces in w
-        ox.thr = (tol_total - skip) / wp.float64(ne)
+        # the first stage's budget per unit w: outer_first_spread times the texel's spread evenly
+        # over the initial pieces (at most all of it); the global loop still bisects until the
+        # sum of the pieces' estimates meets the budget
+        ox.thr = (tol_total - skip) / wp.float64(ne) * wp.min(outer_first_spread, wp.float64(ne))
     ox.ends = ends
     wends = vec48d()
     for q in range(ne + 1):
@@ -341,6 +348,7 @@ def integrate_texels(
     inner_carry: float = INNER_CARRY,
     outer_first: int = 5,
     outer_first_safety: float = OUTER_FIRST_SAFETY,
+    outer_first_spread: float = OUTER_FIRST_SPREAD,
     inner_map: int | None = None,
     ramp_cut: float | None = None,
     return_cost: bool | str = False,
@@ -373,7 +381,9 @@ def integrate_texels(
         (False: linear, the method before issue 14's sixth round); ``inner_carry`` (2; 4 in the
         sixth round): the factor on the inner estimates in the texel's error (the inner
         tolerance divided by it). ``outer_first`` (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always,
-        before issue 14's seventh round) and ``outer_first_safety`` (32): the outer first stage.
+        before issue 14's seventh round) and ``outer_first_safety`` (32): the outer first stage;
+        ``outer_first_spread`` (4; 1 before issue 14's tenth round): its share of the budget, that
+        many times an even share over the initial pieces (at most all of it).
         ``inner_map``: which ends of an inner phi piece are mapped (None: 2 at tolerances >=
         1e-3, 1 below; 0: every end by the smoothstep, before the seventh round; 1: each cut on
         i.m; 2: the critical-angle cut only). ``ramp_cut`` (kappa; None: 2 at tolerances >=
@@ -400,6 +410,8 @@ def integrate_texels(
         raise ValueError(f"outer_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {outer_first!r}")
     if not (math.isfinite(float(outer_first_safety)) and float(outer_first_safety) > 0.0):
         raise ValueError(f"outer_first_safety must be a finite number > 0, got {outer_first_safety!r}")
+    if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
+        raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):
         raise ValueError(f"inner_carry must be finite and > 0, got {inner_carry!r}")
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail
@@ -443,7 +455,8 @@ def integrate_texels(
         float(fp0), float(fp1), float(tol), int(err_model), int(max_rules_outer), int(max_rules_inner),
         float(inner_share), float(max_piece), int(n_fixed), int(err_model_inner), float(err_safety), float(err_power),
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
-        int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), int(inner_map),
+        int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
+        int(inner_map),
         float(ramp_cut), value, error, cost, detail,
     ], dev)
 
