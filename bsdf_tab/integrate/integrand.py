@@ -464,17 +464,6 @@ def phi_of_c(cb: wp.float64, p: TexelParams, cm: wp.float64, sm: wp.float64):
 
 
 @wp.func
-def insert_sorted(v: Any, n: wp.int32, x: wp.float64):
-    """``x`` inserted into the first n sorted entries of the vector ``v`` (n < its length)."""
-    i = n
-    while i > 0 and v[i - 1] > x:
-        v[i] = v[i - 1]
-        i -= 1
-    v[i] = x
-    return v
-
-
-@wp.func
 def tir_eta(p: TexelParams):
     """The relative IOR whose critical angle kinks the integrand (eta < 1), or 2 (none): the
     dielectric mode's eta, or a reflection's dielectric Fresnel eta (p0)."""

@@ -27,7 +27,7 @@ import warp as wp
 
 from ..model.distribution import dcos_v_of_theta
 from .integrand import (
-    HALF_PI64, MODE_DIELECTRIC, TexelParams, fresnel_knee, insert_sorted, mass_bound, tir_eta, transmission_breaks,
+    HALF_PI64, MODE_DIELECTRIC, TexelParams, fresnel_knee, mass_bound, tir_eta, transmission_breaks,
     vec24d,
 )
 from .quadrature import end_map
@@ -129,7 +129,13 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
     for q in range(ncand):
         x = cands[q]
         if x > zero and x < hp:
-            th = insert_sorted(th, nt, x)
+            # insertion in place (a function returning the vector by value copied it: stalls on
+            # store forwarding, as the inner cuts' did, issue 14, tenth round)
+            i = nt
+            while i > 0 and th[i - 1] > x:
+                th[i] = th[i - 1]
+                i -= 1
+            th[i] = x
             nt += 1
     v_end = one
     if mode != MODE_DIELECTRIC:
