@@ -2,7 +2,7 @@
 
 Each shortcut must give the value of the general computation it replaces (bit for bit, or within
 the last bits where said): the phi cosine :func:`cos_0_pi` against the C library's ``cos``
-(through NumPy, and mpmath near pi/2); :func:`gk_error_decay`'s pow-free branches against the
+(through NumPy, and mpmath near pi/2); the cuts' :func:`acos_poly` against mpmath (tenth round); :func:`gk_error_decay`'s pow-free branches against the
 formula d min(1, safety r^power) written in NumPy. The one-interval return of the global
 bisection is tested in ``test_integrate_quadrature.py`` against the general path.
 """
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from bsdf_tab.integrate.integrand import cos_0_pi
+from bsdf_tab.integrate.integrand import acos_poly, cos_0_pi
 from bsdf_tab.integrate.quadrature import gk_error_decay
 
 wp.init()
@@ -49,6 +49,36 @@ def test_cos_0_pi_is_libm_cos_within_one_ulp_of_one():
     yn = y[np.abs(x - math.pi / 2.0) < 1e-9][::20]
     exact = np.array([float(mpmath.cos(mpmath.mpf(float(v)))) for v in near])
     assert np.all(np.abs(yn - exact) <= 4.0 * np.spacing(np.abs(exact))), np.max(np.abs(yn - exact) / np.spacing(np.abs(exact)))
+
+
+@wp.kernel
+def _acos_kernel(x: wp.array(dtype=wp.float64), y: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    y[i] = acos_poly(x[i])
+
+
+def test_acos_poly_within_one_ulp_of_mpmath():
+    mpmath = pytest.importorskip("mpmath")
+    rng = np.random.default_rng(2)
+    # the whole domain, both ends approached to 1e-16, the branch points +-1/2 closely, 0 and +-1
+    x = np.concatenate([rng.uniform(-1.0, 1.0, 4000), 1.0 - 10 ** rng.uniform(-16, 0, 800),
+                        -1.0 + 10 ** rng.uniform(-16, 0, 800), 0.5 + np.linspace(-1e-9, 1e-9, 101),
+                        -0.5 + np.linspace(-1e-9, 1e-9, 101),
+                        [0.0, -0.0, 1.0, -1.0, np.nextafter(0.5, 1.0), np.nextafter(-0.5, -1.0)]])
+    xa = wp.array(x, dtype=wp.float64, device="cpu")
+    ya = wp.zeros_like(xa)
+    wp.launch(_acos_kernel, dim=x.size, inputs=[xa, ya], device="cpu")
+    y = ya.numpy()
+    with mpmath.workdps(40):
+        exact = np.array([float(mpmath.acos(mpmath.mpf(float(v)))) for v in x])
+    ulp = np.abs(y - exact) / np.spacing(np.maximum(exact, 1e-300))
+    assert ulp.max() <= 1.0, (x[np.argmax(ulp)], ulp.max())
+    assert y[x == 1.0].tolist() == [0.0] and np.all(y[x == -1.0] == math.pi)
+    # outside the domain and nan: nan, as acos's
+    xb = wp.array(np.array([1.0 + 1e-15, -1.5, np.inf, np.nan]), dtype=wp.float64, device="cpu")
+    yb = wp.zeros_like(xb)
+    wp.launch(_acos_kernel, dim=4, inputs=[xb, yb], device="cpu")
+    assert np.all(np.isnan(yb.numpy()))
 
 
 @wp.kernel
