@@ -136,19 +136,23 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
         k2 = wp.sqrt(e2)
         t_floor = k2
         if p.mu > zero:
-            c_t = p.mu / (wp.float64(2.0) * cm) + e2 * cm / (wp.float64(2.0) * p.mu)
+            c_t = k1 + e2 * cm / (wp.float64(2.0) * p.mu)
             if c_t * cm >= p.mu:
                 k3 = c_t
                 t_floor = c_t
         else:
             # grazing from inside: o_t.n = (c/eta - sqrt(k2)) cos(theta_m) > 0, never transmitted
             t_floor = wp.float64(2.0)
-    elif tir_eta(p) < one:
-        # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
-        k2 = wp.sqrt(one - tir_eta(p) * tir_eta(p))
-    elif fresnel_knee(p) > zero:
-        # eta just above 1: the Fresnel's knee (mapped as the critical cut is)
-        k2 = fresnel_knee(p)
+    else:
+        eta_f = tir_eta(p)
+        if eta_f < one:
+            # reflection with a dielectric Fresnel of eta < 1: its square-root kink at the critical angle
+            k2 = wp.sqrt(one - eta_f * eta_f)
+        else:
+            knee = fresnel_knee(p)
+            if knee > zero:
+                # eta just above 1: the Fresnel's knee (mapped as the critical cut is)
+                k2 = knee
     # the cuts in phi order: i.m falls as phi grows, so sort the i.m descending, in scalars (a
     # sorting network: insertion into vectors by value cost ~5% of a loose-tolerance table in
     # store-forwarding stalls, issue 14, tenth round); the phi of each one inside (c_min, c_max)

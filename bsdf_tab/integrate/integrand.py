@@ -284,8 +284,9 @@ def acos_poly(x: wp.float64):
     if big:
         z = (one - ax) * half
         y = wp.sqrt(z)
-    z4 = (z * z) * (z * z)
-    hi = (ASIN_R_HI[0] + ASIN_R_HI[1] * z) + (ASIN_R_HI[2] + ASIN_R_HI[3] * z) * (z * z)
+    z2 = z * z
+    z4 = z2 * z2
+    hi = (ASIN_R_HI[0] + ASIN_R_HI[1] * z) + (ASIN_R_HI[2] + ASIN_R_HI[3] * z) * z2
     r = y + y * (z * (_estrin8(z, ASIN_R_LO) + hi * (z4 * z4)))
     pos = (PIO2_HI - r) + PIO2_LO  # acos(|x|)
     if big:

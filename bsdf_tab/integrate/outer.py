@@ -111,9 +111,10 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
         if ch < one:
             cands[ncand] = wp.acos(ch)
             ncand += 1
-    if fresnel_knee(p) > zero:
+    knee = fresnel_knee(p)
+    if knee > zero:
         # eta just above 1: where the extreme i.m crosses the Fresnel knee sqrt(eta^2 - 1)
-        theta_k = wp.acos(fresnel_knee(p))
+        theta_k = wp.acos(knee)
         cands[ncand] = wp.abs(theta_i - theta_k)
         cands[ncand + 1] = theta_i + theta_k
         ncand += 2
