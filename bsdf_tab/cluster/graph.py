@@ -25,9 +25,11 @@ from .worker import compute_chunk
 
 __all__ = ["TableTasks", "chunk_texels", "chunks", "completed", "completed_chunks", "submit_table"]
 
-#: Bounds of a chunk's size in texels: below, the scheduler's per-task cost (~ms) shows;
-#: above, too few tasks to balance the workers.
-MIN_CHUNK_TEXELS = 256
+#: Bounds of a chunk's size in texels: below, the scheduler's per-task cost (~10 ms round trip
+#: on 2 cores) shows; above, too few tasks to balance the workers. 1024 since issue 14 made a
+#: texel ~7x cheaper (256 before: albedo 64^2 and dielectric 16^3 measured 1.73 / 1.65x the
+#: in-process time with it, 1.33 / 1.21x with 1024; bench/cluster.py, docs/cluster.md).
+MIN_CHUNK_TEXELS = 1024
 MAX_CHUNK_TEXELS = 16384
 
 
