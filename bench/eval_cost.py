@@ -5,7 +5,7 @@ Run: ``python bench/eval_cost.py [--texels 2048] [--device cpu]``. Prints a tabl
 ``bench/out/eval_cost.json``. For random texels (mu, alpha uniform in [0.05, 1]; Fresnel
 dielectric 1.5 for reflection) and 64 micro-normal angles theta_m each, one kernel calls the
 method's :func:`~bsdf_tab.integrate.inner.inner_integral` (the shipped inner settings: two-stage
-G7 first with ``FIRST_SAFETY``, the decay-ratio estimate, the ends mapped as the method maps them
+G7 first with ``FIRST_SAFETY``, then G7 with ``SECOND_SAFETY`` |G7 - I9|, the decay-ratio estimate, the ends mapped as the method maps them
 at that tolerance) and counts its evaluations; a
 second kernel evaluates the integrand the same number of times at the same theta_m, on a uniform
 phi grid over the support (where i.m exceeds the reflection horizon's, or 0 for transmission),
@@ -27,7 +27,7 @@ import warp as wp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bsdf_tab.integrate.adaptive import FIRST_SAFETY  # noqa: E402
+from bsdf_tab.integrate.adaptive import FIRST_SAFETY, SECOND_SAFETY  # noqa: E402
 from bsdf_tab.integrate.inner import inner_integral  # noqa: E402
 from bsdf_tab.integrate.integrand import integrand_phi, make_texel  # noqa: E402
 from bench.common import device_arg  # noqa: E402
@@ -47,6 +47,7 @@ def _texel(mu: wp.float64, alpha: wp.float64, mode: wp.int32, dist: wp.int32, in
     p.inner_first = 5
     p.first_share = wp.float64(1.0)
     p.first_safety = wp.float64(FIRST_SAFETY)
+    p.second_safety = wp.float64(SECOND_SAFETY)
     p.inner_map = inner_map
     return p
 

@@ -14,7 +14,8 @@ of mu grazing, theta_m near the outer breakpoints, near the lobe or uniform; the
 log-uniform in [1e-7, 3e-2] pi) it runs the inner integral with the first stage at each
 ``--safety``, with K15 only at the same tolerance, and with K15 at 1e-14 (the reference), and
 counts the samples whose reported error is below the true one with the first stage but not with
-K15 only. Counts are deterministic for a seed; times are not reported.
+K15 only. The first stage's run includes the second stage (``--second-safety``: its factor on
+|G7 - I9|, issue 14 round 11; 0 for the first stage alone). Counts are deterministic for a seed; times are not reported.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from bsdf_tab.integrate.inner import inner_integral  # noqa: E402
+from bsdf_tab.integrate.adaptive import SECOND_SAFETY  # noqa: E402
 from bsdf_tab.integrate.integrand import MODE_DIELECTRIC, MODE_REFLECT, make_texel  # noqa: E402
 
 wp.config.quiet = True
@@ -49,7 +51,7 @@ FAMILIES = [
 def inner_kernel(mu: wp.array(dtype=wp.float64), alpha: wp.array(dtype=wp.float64), eta: wp.array(dtype=wp.float64),
                  theta_m: wp.array(dtype=wp.float64), tol: wp.array(dtype=wp.float64), mode: int, dist: int,
                  shadowing: int, ftype: int, fparam: wp.float64, inner_first: int, safety: wp.float64,
-                 max_rules: int, inner_map: int, out: wp.array2d(dtype=wp.float64)):
+                 second: wp.float64, max_rules: int, inner_map: int, out: wp.array2d(dtype=wp.float64)):
     k = wp.tid()
     p = make_texel(mode, dist, shadowing, ftype, fparam, wp.float64(0.0), mu[k], alpha[k], eta[k])
     # the method's inner settings (adaptive.integrate_texels defaults), the first stage switchable
@@ -59,6 +61,7 @@ def inner_kernel(mu: wp.array(dtype=wp.float64), alpha: wp.array(dtype=wp.float6
     p.err_power = wp.float64(3.0)
     p.inner_first = inner_first
     p.first_safety = safety
+    p.second_safety = second
     p.first_share = wp.float64(1.0)
     p.bound_share = wp.float64(0.0)
     p.inner_map = inner_map
@@ -92,13 +95,13 @@ def samples(rng: np.random.Generator, n: int, eta_kind: str, reflect: bool) -> d
 
 
 def run(family: tuple, s: dict, tol: np.ndarray, inner_first: int, safety: float, max_rules: int,
-        inner_map: int = 1) -> np.ndarray:
+        inner_map: int = 1, second: float = 0.0) -> np.ndarray:
     _, mode, dist, shadowing, ftype, fparam, _ = family
     arr = {k: wp.array(v, dtype=wp.float64, device="cpu") for k, v in s.items() if k != "tol"}
     out = wp.zeros((tol.size, 5), dtype=wp.float64, device="cpu")
     wp.launch(inner_kernel, dim=tol.size, device="cpu",
               inputs=[arr["mu"], arr["alpha"], arr["eta"], arr["theta_m"], wp.array(tol, dtype=wp.float64, device="cpu"),
-                      mode, dist, shadowing, ftype, fparam, inner_first, safety, max_rules, inner_map, out])
+                      mode, dist, shadowing, ftype, fparam, inner_first, safety, second, max_rules, inner_map, out])
     return out.numpy()
 
 
@@ -126,9 +129,11 @@ def main(argv=None, prog=None) -> int:
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--samples", type=_samples, default=6000, help="inner integrals per family")
-    ap.add_argument("--safety", type=_safeties, default="1,4", help="first_safety values, comma-separated (4 is the default)")
+    ap.add_argument("--safety", type=_safeties, default="1,4", help="first_safety values, comma-separated (the method's is 8)")
     ap.add_argument("--inner-map", type=int, choices=(0, 1, 2), default=1,
                     help="the pieces' end map (adaptive.integrate_texels' inner_map; 1, the default below 1e-3)")
+    ap.add_argument("--second-safety", type=float, default=SECOND_SAFETY,
+                    help=f"the second stage's factor on |G7 - I9| (0: off; {SECOND_SAFETY:g} is the default)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "out" / "inner_honesty.json"))
     args = ap.parse_args(argv)
     safeties = args.safety
@@ -141,7 +146,7 @@ def main(argv=None, prog=None) -> int:
         ref = run(fam, s, np.full(args.samples, 1e-14), 0, 1.0, 2000, 0)
         k15 = run(fam, s, s["tol"], 0, 1.0, 50, args.inner_map)
         for safety in safeties:
-            two = run(fam, s, s["tol"], 5, safety, 50, args.inner_map)
+            two = run(fam, s, s["tol"], 5, safety, 50, args.inner_map, args.second_safety)
             counts, worst, under_all = [], 0.0, []
             for ch in (0, 1):
                 # true error beyond the reference's own estimate, over the reported one
@@ -154,7 +159,8 @@ def main(argv=None, prog=None) -> int:
                 under_all.append(int((r_two > 1).sum()))
                 worst = max(worst, float(np.max(np.where(new, r_two, 0.0))))
             ratio = float(two[:, 4].sum() / max(k15[:, 4].sum(), 1.0))
-            rows.append({"family": fam[0], "first_safety": safety, "inner_map": args.inner_map, "under_reported": counts,
+            rows.append({"family": fam[0], "first_safety": safety, "second_safety": args.second_safety,
+                         "inner_map": args.inner_map, "under_reported": counts,
                          "under_reported_all": under_all, "worst_ratio": worst,
                          "rule_applications_vs_k15": ratio, "samples": args.samples})
             print(f"| {fam[0]} | {safety:g} | {counts[0]} / {counts[1]} (all: {under_all[0]} / {under_all[1]}) | {worst:.3g} | {ratio:.3f} |")

@@ -127,8 +127,9 @@ wp.set_module_options({
 })
 
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
-OUTER_FIRST_SAFETY = 32.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, round 7)
+OUTER_FIRST_SAFETY = 64.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7 and 11)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
+SECOND_SAFETY = 16.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
@@ -250,6 +251,8 @@ def texel_kernel(
     outer_first_spread: wp.float64,
     inner_map: wp.int32,
     ramp_cut: wp.float64,
+    second_safety: wp.float64,
+    shared_error: wp.int32,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -272,6 +275,7 @@ def texel_kernel(
     p.first_share = first_share
     p.first_safety = first_safety
     p.inner_map = inner_map
+    p.second_safety = second_safety
     # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
     # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
     # most tol_in in total), the rest for the outer v quadrature
@@ -285,6 +289,12 @@ def texel_kernel(
     ox.omap = outer_map
     ox.carry = inner_carry
     ox.first = outer_first
+    if p.sin_i <= wp.float64(0.0):
+        # normal incidence: each inner integral is one evaluation with no estimate to carry, and
+        # |G7 - I5| alone under-reported (4.6x: GGX, eta 0.3, alpha 0.0085, tolerance 1e-6; a
+        # near-mirror D packs the critical angle's neighbourhood into a piece's end): K15 on
+        # every interval, 8 evaluations more each (issue 14, round 11)
+        ox.first = 0
     ox.thr = wp.float64(0.0)
     ox.safety = outer_first_safety
     if ne > 0:
@@ -299,6 +309,12 @@ def texel_kernel(
     total, err, rules, rules_ref = _adaptive_outer(p, ox, wends, ne,
                                                    tol_total - skip, max_rules_outer, wp.vec2i(0, 0))
     err += wp.vec2d(skip, skip)
+    if shared_error != 0 and mode != MODE_REFLECT:
+        # R and T (A and B) share F: where G is ~1 their sum is smooth and their errors are
+        # near opposites, which one channel's estimate can miss while the other's sees it (T at
+        # 4.2x its own estimate, within R's: issue 14, round 11): both report the larger
+        e_max = wp.max(err[0], err[1])
+        err = wp.vec2d(e_max, e_max)
     value[i, 0] = total[0] / PI64
     value[i, 1] = total[1] / PI64
     # floor (err_floor, see integrate_texels): what the estimates cannot certify
@@ -351,6 +367,8 @@ def integrate_texels(
     outer_first_spread: float = OUTER_FIRST_SPREAD,
     inner_map: int | None = None,
     ramp_cut: float | None = None,
+    second_safety: float = SECOND_SAFETY,
+    shared_error: bool = True,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -405,7 +423,7 @@ def integrate_texels(
     """
     dev = resolve_device(device)
     check_workers(workers)
-    check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power)
+    check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power, second_safety)
     if isinstance(outer_first, bool) or outer_first not in (0, 3, 5):
         raise ValueError(f"outer_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {outer_first!r}")
     if not (math.isfinite(float(outer_first_safety)) and float(outer_first_safety) > 0.0):
@@ -457,7 +475,7 @@ def integrate_texels(
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
         int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
         int(inner_map),
-        float(ramp_cut), value, error, cost, detail,
+        float(ramp_cut), float(second_safety), int(bool(shared_error)), value, error, cost, detail,
     ], dev)
 
     # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the

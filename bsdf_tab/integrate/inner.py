@@ -20,7 +20,7 @@ from .integrand import (
     tir_eta,
 )
 from .quadrature import (
-    WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
+    WG7_D, WGK_D, decay_ratio, end_map, first_stage, second_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
     make_global_bisection, vec8d, vec16d,
 )
 
@@ -30,12 +30,17 @@ wp.set_module_options({"enable_backward": False})
 vec6d = wp.types.vector(length=6, dtype=wp.float64)
 # an absent cut: below every i.m of the phi circle (i.m >= -1)
 NO_CUT = wp.constant(wp.float64(-2.0))
+# node sets of the 15 (bit j: node j of gk_abscissa): G7's (odd j), the Kronrod extension's (even
+# j), and the second stage's four of those (+-XGK[2], +-XGK[4])
+MASK_G7 = wp.constant(0x2AAA)
+MASK_K = wp.constant(0x5555)
+MASK_S2 = wp.constant((1 << 2) | (1 << 4) | (1 << 10) | (1 << 12))
 
 
 # inlined into gk_phi (its two calls): out of line it took p, x, f0 and f1 by value, ~0.5 KB
 # copied per call, and measured 8-11% slower (issue 14, ninth round)
 @wp.func(inline=True)
-def _phi_nodes(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, odd: wp.int32,
+def _phi_nodes(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, mask: wp.int32,
                f0: vec16d, f1: vec16d):
     # the integrand at the nodes j of parity ``odd`` (j < 8: +XGK[j], else -XGK[j - 8]) of
     # [ctr - hl, ctr + hl] in t, through the piece's end map (x[6]: which ends, end_map), into
@@ -46,12 +51,12 @@ def _phi_nodes(p: TexelParams, x: vec8d, ctr: wp.float64, hl: wp.float64, odd: w
     cps = vec16d()
     jac = vec16d()
     for j in range(15):
-        if j % 2 == odd:
+        if (mask >> j) & 1 != 0:
             s, ds = end_map(gk_abscissa(ctr, hl, j), ends)
             cps[j] = cos_0_pi(x[3] + ln * s)
             jac[j] = ds * ln
     for j in range(15):
-        if j % 2 == odd:
+        if (mask >> j) & 1 != 0:
             f = integrand_cos(p, x[0], x[1], x[2], cps[j]) * jac[j]
             f0[j] = f[0]
             f1[j] = f[1]
@@ -72,13 +77,20 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     rg = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     f0 = vec16d()
     f1 = vec16d()
-    f0, f1 = _phi_nodes(p, x, ctr, hl, 1, f0, f1)
+    g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_G7, f0, f1)
+    # (g = 0: 7 or 11 zeros may miss a support between the nodes; K15 looks at 15 points)
     if p.inner_first > 0:
+        d = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
         g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
-        # (g = 0: 7 zeros may miss a support between the nodes; K15 looks at 15 points)
         if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(7)
-    f0, f1 = _phi_nodes(p, x, ctr, hl, 0, f0, f1)
+    f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_S2, f0, f1)
+    if p.inner_first > 0 and p.second_safety > wp.float64(0.0):
+        d = second_stage(f0, f1, g, hl, p.second_safety)
+        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
+            return g, d, int(11)
+    f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_K - MASK_S2, f0, f1)
     for j in range(15):
         jj = j
         if j >= 8:

@@ -186,6 +186,28 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
     return g * hl, out
 
 
+# the second stage's rule: interpolatory on G7's nodes but +-XGK[3], and the Kronrod pairs +-XGK[2],
+# +-XGK[4] (nine nodes, exact to degree 9, positive weights)
+WI9 = _interpolatory([1, 2, 4, 5, 7])
+WI9_D = wp.constant(vec8d(*WI9.tolist()))
+
+
+@wp.func
+def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp.float64):
+    """The second stage of the three-stage rule: G7 (``g``, times ``hl`` already) with the error
+    ``safety`` |G7 - I9|, I9 the interpolatory rule on G7's nodes but +-XGK[3] and the Kronrod
+    nodes +-XGK[2], +-XGK[4] (j = 1, 2, 4, 5, 7, 9, 10, 12, 13 of ``f0``, ``f1``); floored at
+    50 ulp of |G7|. Returns the error."""
+    q = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for j in range(15):
+        if j == 1 or j == 2 or j == 4 or j == 5 or j == 7 or j == 9 or j == 10 or j == 12 or j == 13:
+            q += WI9_D[j % 8] * wp.vec2d(f0[j], f1[j])
+    out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+    for c in range(2):
+        out[c] = wp.max(safety * wp.abs(g[c] - q[c] * hl), wp.float64(1.1e-14) * wp.abs(g[c]))
+    return out
+
+
 @wp.func
 def end_map(t: wp.float64, ends: wp.int32):
     """(s, ds/dt): the map of t in [0, 1] onto a piece's s in [0, 1] that flattens the mapped ends
@@ -206,10 +228,11 @@ def end_map(t: wp.float64, ends: wp.int32):
     return t, one
 
 
-def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power) -> None:
+def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power, second_safety=0.0) -> None:
     """The inner error estimates' keywords, validated: the two-stage rule's ``inner_first`` 0
     (off), 5 (I5) or 3 (I3), ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1
-    only for measuring the margin: the estimate is then smaller than |G7 - I| itself); the decay
+    only for measuring the margin: the estimate is then smaller than |G7 - I| itself), the second
+    stage's ``second_safety`` finite and >= 0 (0: off); the decay
     estimate's ``err_safety`` and ``err_power`` finite and > 0 (:func:`gk_error_decay` takes a
     decay ratio of 0 to a factor 0, which is the formula's limit only for a positive power)."""
     for name, value in (("err_safety", err_safety), ("err_power", err_power)):
@@ -221,6 +244,8 @@ def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_
         raise ValueError(f"first_share must be in [0, 1], got {first_share!r}")
     if not (math.isfinite(float(first_safety)) and float(first_safety) > 0.0):
         raise ValueError(f"first_safety must be a finite number > 0, got {first_safety!r}")
+    if isinstance(second_safety, bool) or not (math.isfinite(float(second_safety)) and float(second_safety) >= 0.0):
+        raise ValueError(f"second_safety must be a finite number >= 0 (0: off), got {second_safety!r}")
 
 
 STACK = 64

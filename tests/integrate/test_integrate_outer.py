@@ -50,19 +50,21 @@ def test_horizon_crossing_the_critical_angle_is_a_breakpoint():
         assert abs(v[0, 0] - r[0].value) < 2e-7  # R resolved (1.1e-6 off without the breakpoint)
 
 
-@pytest.mark.parametrize("carry, inner_map, spread, honest", [
-    (INNER_CARRY, None, OUTER_FIRST_SPREAD, True), (INNER_CARRY, None, 1.0, True), (4.0, 0, 1.0, True),
-    (1.0, 0, 1.0, False),
+@pytest.mark.parametrize("carry, inner_map, spread, shared, honest", [
+    (INNER_CARRY, None, OUTER_FIRST_SPREAD, True, True), (INNER_CARRY, None, 1.0, True, True), (4.0, 0, 1.0, False, True),
+    (1.0, 0, 1.0, False, False),
 ])
-def test_inner_estimates_are_carried_with_a_factor(carry, inner_map, spread, honest):
+def test_inner_estimates_are_carried_with_a_factor(carry, inner_map, spread, shared, honest):
     # with round 6's smoothstep at every inner end (inner_map 0) the factor 4 was needed here (2:
     # 9.96e-9 reported for 9.97e-9); round 7's end maps resolve this texel, and carry 2. The
     # dishonest variant keeps the outer first stage's even share too (spread 1): with round 10's
-    # spread 4 the outer level takes a different path and this texel is honest at carry 1
+    # spread 4 the outer level takes a different path and this texel is honest at carry 1; and
+    # each channel its own estimate (shared_error False): from round 11, T (1.11 of its own
+    # estimate at carry 1) reports R's larger one (0.15)
     mu, alpha, eta = 0.75, 0.03, 1.0 / 1.5  # theta_i = 0.7227, theta_c = 0.7297
     r = ref.dielectric(mu, alpha, eta, GGX, CORRELATED, methods="B")
     v, e = integrate_texels("dielectric", [mu], [alpha], [eta], dist=GGX, shadowing=CORRELATED, tol=1e-7,
-                            inner_carry=carry, inner_map=inner_map, outer_first_spread=spread)
+                            inner_carry=carry, inner_map=inner_map, outer_first_spread=spread, shared_error=shared)
     assert bool((_ratios(v, e, r) <= 1.0).all()) == honest, (v, e, r)
 
 
