@@ -198,7 +198,8 @@ def pareto(points):
 
 
 def parse_variants(texts) -> list[dict]:
-    """``--variant KEY=VALUE[,KEY=VALUE]`` options -> integrate_texels keyword dicts (ints or floats).
+    """``--variant KEY=VALUE[,KEY=VALUE]`` options -> integrate_texels keyword dicts (ints, floats,
+    or booleans for ``true`` / ``false``).
 
     Raises ValueError naming the bad text (the scripts print it as one line and exit 2).
     """
@@ -209,7 +210,10 @@ def parse_variants(texts) -> list[dict]:
             k, sep, val = kv.partition("=")
             if not sep or not k:
                 raise ValueError(f"--variant: expected KEY=VALUE, got {kv!r}")
-            d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
+            if val.lower() in ("true", "false"):
+                d[k] = val.lower() == "true"
+            else:
+                d[k] = int(val) if val.lstrip("-").isdigit() else float(val)
         variants.append(d)
     return variants
 

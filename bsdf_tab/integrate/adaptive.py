@@ -21,19 +21,23 @@ split at those points, each piece mapped at the ends that need it (``inner_map``
 Fresnel at the critical angle linear and the horizons' kinks smooth; no map at phi = 0 or pi,
 where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
 the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped), and integrated by
-adaptive G7-K15 as a two-stage rule (issue 14, fourth round): the 7 Gauss nodes first, and G7
+adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
-5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise the
-8 Kronrod nodes are added and the interval is K15 with the estimate below (the 7 values reused,
-so a rejected first stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
+5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise 4 of
+the Kronrod nodes are added and G7 is accepted with ``second_safety`` |G7 - I9| = 16 |G7 - I9|
+(I9 on 9 of the 11 values, degree 9: far sharper than |G7 - I5| on smooth integrands); otherwise
+the last 4 Kronrod nodes are added and the interval is K15 with the estimate below (the values
+reused, so a rejected stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
 theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, the
 critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integrate.outer`), and
 each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
 outer integrand's kinks and half-integer powers sit at the piece ends, where the map makes them
 smooth; with the round's other changes -36% evaluations at 5e-7 on the 1634-texel harness).
-The outer rule is two-stage too (issue 14, seventh round): its 7 Gauss nodes first, G7 accepted
-when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 32 |G7 - I5| plus the carried inner estimates fits in the
-interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported):
+The outer rule is two-stage (issue 14, seventh round): its 7 Gauss nodes first, G7 accepted
+when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 128 |G7 - I5| plus the carried inner estimates fits in
+the interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported,
+and 32 near normal incidence, where the inner integrals carry almost nothing: round 11), except
+at mu = 1, where every outer interval is K15 (each inner integral is one evaluation there):
 ``OUTER_FIRST_SPREAD`` = 4 times its even share, at most the whole budget, since the global loop
 still refines until the pieces' estimates sum to the budget (issue 14, tenth round: -4 .. -10%
 evaluations at 1e-3, -2 .. -3% below 1e-4, the harness honest).
@@ -77,11 +81,14 @@ Legendre coefficients of the 15-node interpolant
 resolved far beyond G7; where they do not (r >= 1) the estimate is |K15 - G7|; an accepted
 first stage reports 8 |G7 - I5| (:func:`bsdf_tab.integrate.quadrature.first_stage`), the degree-6
 term of the 7 values' interpolant, not G7's error, blind to what 7 values do not resolve
-(single inner integrals under-report: ``bench/inner_honesty.py``). Texel honesty rests on the
-outer level and the carry, measured, not proven: on 1634 reference texels
-(``bench/accuracy_honesty.py``, 1e-2 .. 1e-7) none reports less than its true error, worst
-ratio 0.51 (docs/methods.md, also for the outer estimates that under-reported: the decay ratio,
-r^6, the outer first stage at 8 |G7 - I5|). Rule applications are capped per texel (``max_rules_outer``,
+(single inner integrals under-report: ``bench/inner_honesty.py``). The dielectric (R, T) and
+split-sum (A, B) channels both report the larger of their two estimates (``shared_error``,
+round 11): they share F, their errors are near opposites where G is ~1, and one channel's
+estimate saw what the other's missed. Texel honesty rests on the outer level and the carry,
+measured, not proven: on 1634 reference texels (``bench/accuracy_honesty.py``, 1e-2 .. 1e-7)
+none reports less than its true error, worst ratio 0.46 below 1e-4 (docs/methods.md, also for
+the estimates that under-reported: the decay ratio, r^6, the outer first stage at 8 and at 32
+|G7 - I5| near normal incidence, each channel on its own). Rule applications are capped per texel (``max_rules_outer``,
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
 reports its large estimate instead of a wrong small one.
 
@@ -127,7 +134,7 @@ wp.set_module_options({
 })
 
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
-OUTER_FIRST_SAFETY = 64.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7 and 11)
+OUTER_FIRST_SAFETY = 128.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7 and 11)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 SECOND_SAFETY = 16.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
@@ -394,12 +401,15 @@ def integrate_texels(
         tolerances >= 1e-4, 0 below; 0: none left out, the bound still caps each outer rule's
         estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the
         inner first stage (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always, before issue 14's round 4);
-        ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (8): its factor.
+        ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (8): its factor;
+        ``second_safety`` (16; 0: off, the method before issue 14's round 11): the second stage's
+        factor on |G7 - I9|.
         ``outer_map`` (True): the outer rules through the smoothstep map of their initial piece
         (False: linear, the method before issue 14's sixth round); ``inner_carry`` (2; 4 in the
         sixth round): the factor on the inner estimates in the texel's error (the inner
         tolerance divided by it). ``outer_first`` (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always,
-        before issue 14's seventh round) and ``outer_first_safety`` (32): the outer first stage;
+        before issue 14's seventh round; at mu = 1 always 0) and ``outer_first_safety`` (128; 32
+        before round 11): the outer first stage;
         ``outer_first_spread`` (4; 1 before issue 14's tenth round): its share of the budget, that
         many times an even share over the initial pieces (at most all of it).
         ``inner_map``: which ends of an inner phi piece are mapped (None: 2 at tolerances >=
@@ -408,7 +418,8 @@ def integrate_texels(
         1e-3, 0 below; 0: off): outer cuts where o_r.n = kappa alpha at phi = pi and phi = 0,
         which isolate the Smith G1 ramp at the reflection horizon, in place of the floor
         (``max_dtheta`` and ``max_piece`` are then not applied), except on dielectric texels
-        with eta < 1 (issue 14, ninth round).
+        with eta < 1 (issue 14, ninth round). ``shared_error`` (True; False before round 11):
+        dielectric and split-sum texels report the larger of their two channels' estimates in both.
 
     Returns
     -------
@@ -430,6 +441,8 @@ def integrate_texels(
         raise ValueError(f"outer_first_safety must be a finite number > 0, got {outer_first_safety!r}")
     if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
         raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
+    if not isinstance(shared_error, (bool, np.bool_)):
+        raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):
         raise ValueError(f"inner_carry must be finite and > 0, got {inner_carry!r}")
     # the smallest error reported: 1e-9 for tolerances >= 1e-7 (misses of up to 5e-10 in the D tail

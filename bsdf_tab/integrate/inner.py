@@ -6,7 +6,7 @@ reflection horizon, i.m = 0, the critical angle of an eta < 1 Fresnel, the trans
 horizon). :func:`inner_integral` splits [0, pi] at those cuts, drops the pieces where every
 channel vanishes, maps each piece at the ends that need it (``p.inner_map``,
 :func:`bsdf_tab.integrate.quadrature.end_map`) and integrates it by globally adaptive G7-K15
-as a two-stage rule (:func:`gk_phi`). :mod:`bsdf_tab.integrate.adaptive` has the method's
+as a three-stage rule (:func:`gk_phi`). :mod:`bsdf_tab.integrate.adaptive` has the method's
 account of the estimates and the measurements behind them; this module is its inner half, as
 :mod:`bsdf_tab.integrate.outer` is the start of its outer one.
 """
@@ -20,8 +20,8 @@ from .integrand import (
     tir_eta,
 )
 from .quadrature import (
-    WG7_D, WGK_D, decay_ratio, end_map, first_stage, second_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
-    make_global_bisection, vec8d, vec16d,
+    WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
+    make_global_bisection, second_stage, vec8d, vec16d,
 )
 
 # no kernel of this module is differentiated: no adjoint code
@@ -69,7 +69,10 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     (:func:`end_map`, ends x[6]), x = (cm, sm, tm, a, b, thr, ends, -) (cos, sin, tan of theta_m,
     the piece, its first-stage tolerance per unit t, which ends are mapped). Returns (K,
     error, evaluations). ``p.inner_first``: the 7 Gauss nodes (odd j) first, G7 accepted with
-    :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; else K15."""
+    :func:`first_stage`'s error (first_safety |G7 - I5|) if <= thr (tb - ta) and G7 != 0; then
+    (``p.second_safety`` > 0) the Kronrod nodes +-XGK[2], +-XGK[4] and G7 accepted with
+    :func:`second_stage`'s error (second_safety |G7 - I9|) on the same test, 11 evaluations;
+    else the other 4 and K15."""
     half = wp.float64(0.5)
     ctr = half * (ta + tb)
     hl = half * (tb - ta)

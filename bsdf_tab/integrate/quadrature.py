@@ -186,8 +186,11 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
     return g * hl, out
 
 
-# the second stage's rule: interpolatory on G7's nodes but +-XGK[3], and the Kronrod pairs +-XGK[2],
-# +-XGK[4] (nine nodes, exact to degree 9, positive weights)
+# the second stage's rule (issue 14, round 11): interpolatory on G7's nodes but +-XGK[3], and the
+# Kronrod pairs +-XGK[2], +-XGK[4] (nine nodes, exact to degree 9, positive weights). Any rule on a
+# superset of G7's nodes with fewer than 15 is G7 itself (its degree is 13), so a Gauss pair goes;
+# +-XGK[3] with +-XGK[2], +-XGK[4] was the most conservative of the positive choices on smooth and
+# near-singular test functions
 WI9 = _interpolatory([1, 2, 4, 5, 7])
 WI9_D = wp.constant(vec8d(*WI9.tolist()))
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.common import CASES, Case, aggregate, pareto, reference_values, run_method
+from bench.common import CASES, Case, aggregate, pareto, parse_variants, reference_values, run_method
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -78,3 +78,13 @@ def test_importing_the_package_loads_no_checkout_module(tmp_path):
                          check=True)
     assert out.stdout.strip() == "[]"
     assert not any(tmp_path.iterdir())
+
+
+def test_parse_variants_types_and_errors():
+    got = parse_variants(["inner_share=0.5,max_rules_outer=300", "shared_error=false,outer_first=0", "x=TRUE,y=-2"])
+    assert got == [{"inner_share": 0.5, "max_rules_outer": 300}, {"shared_error": False, "outer_first": 0},
+                   {"x": True, "y": -2}]
+    assert type(got[0]["max_rules_outer"]) is int and type(got[1]["shared_error"]) is bool
+    for bad in ("inner_share", "=3", "a=b"):
+        with pytest.raises(ValueError):
+            parse_variants([bad])
