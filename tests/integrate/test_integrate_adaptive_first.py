@@ -73,14 +73,21 @@ def test_g7_weights_are_gauss_legendre():
     assert np.allclose([g[1] for g in got], w, atol=1e-15)
 
 
-@wp.kernel
-def _first_kernel(f: wp.array2d(dtype=wp.float64), hl: wp.float64, which: wp.int32, out: wp.array2d(dtype=wp.float64)):
-    k = wp.tid()
+@wp.func
+def node_values(f: wp.array2d(dtype=wp.float64), k: wp.int32):
+    # row k's 15 values as channel 0, and -2 times them as channel 1
     f0 = vec16d()
     f1 = vec16d()
     for j in range(15):
         f0[j] = f[k, j]
         f1[j] = -wp.float64(2.0) * f[k, j]
+    return f0, f1
+
+
+@wp.kernel
+def _first_kernel(f: wp.array2d(dtype=wp.float64), hl: wp.float64, which: wp.int32, out: wp.array2d(dtype=wp.float64)):
+    k = wp.tid()
+    f0, f1 = node_values(f, k)
     g, e = first_stage(f0, f1, hl, which, wp.float64(1.0))
     out[k, 0] = g[0]
     out[k, 1] = g[1]

@@ -26,8 +26,8 @@ import pytest
 import warp as wp
 
 from bsdf_tab.integrate import adaptive, integrate_texels
-from bsdf_tab.integrate.quadrature import GK_X, WG7, WI9, XGK, second_stage, vec16d
-from tests.integrate.test_integrate_adaptive_first import FUNCS, _honest_and_counted, _texels
+from bsdf_tab.integrate.quadrature import GK_X, WI9, XGK, second_stage
+from tests.integrate.test_integrate_adaptive_first import FUNCS, _honest_and_counted, _texels, node_values
 
 I9_NODES = [1, 2, 4, 5, 7]  # QUADPACK layout: +-0.949, +-0.865, +-0.586, +-0.406, 0
 
@@ -58,11 +58,7 @@ def test_i9_weights_from_the_moments():
 def _second_kernel(f: wp.array2d(dtype=wp.float64), g7: wp.array(dtype=wp.float64), hl: wp.float64,
                    safety: wp.float64, out: wp.array2d(dtype=wp.float64)):
     k = wp.tid()
-    f0 = vec16d()
-    f1 = vec16d()
-    for j in range(15):
-        f0[j] = f[k, j]
-        f1[j] = -wp.float64(2.0) * f[k, j]
+    f0, f1 = node_values(f, k)
     e = second_stage(f0, f1, wp.vec2d(g7[k], -wp.float64(2.0) * g7[k]), hl, safety)
     out[k, 0] = e[0]
     out[k, 1] = e[1]
