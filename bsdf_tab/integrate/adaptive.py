@@ -55,7 +55,11 @@ than ``max_piece`` = 1/4 in v (1/2 at tolerances >= 1e-4): the v map packs theta
 a sliver near v = 1, where a single rule could otherwise step over the horizon structure
 unnoticed. At tolerances >= 1e-3 two cuts where o_r.n = ``RAMP_CUT`` alpha replace that floor
 (but on dielectric texels with eta < 1): they put the Smith G1 ramp at the reflection horizon, the
-structure the floor was there for, into an interval of its own. docs/methods.md has the
+structure the floor was there for, into an interval of its own. Below 1e-5 the initial pieces are
+also cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 32 within one, up to
+cot(theta_m) = mu / 4 (round 11: at grazing incidence (i.m) / cos(theta_m) grows like
+tan(theta_m) and the horizon's structure sits at cot(theta_m) ~ mu / 2, the top of the last
+piece, which a single rule spanned unresolved: texels up to 6.5x their estimate). docs/methods.md has the
 measurements behind every constant.
 
 The D tail (issue 14, third round): :func:`bsdf_tab.integrate.integrand.mass_bound` is a
@@ -138,6 +142,7 @@ OUTER_FIRST_SAFETY = 128.0  # the factor on the outer first stage's |G7 - I5| (d
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 SECOND_SAFETY = 16.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
+OUTER_GRADE = 32.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
@@ -260,6 +265,7 @@ def texel_kernel(
     ramp_cut: wp.float64,
     second_safety: wp.float64,
     shared_error: wp.int32,
+    outer_grade: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -287,7 +293,8 @@ def texel_kernel(
     # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
     # most tol_in in total), the rest for the outer v quadrature
     tol_total = tol * PI64
-    ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share, ramp_cut)
+    ends, ne, skip = initial_ends(p, mode, tol_total, n_fixed, max_dtheta, max_piece, bound_share, ramp_cut,
+                                  outer_grade)
     tol_in = inner_share * (tol_total - skip)
 
     ox = OuterX()
@@ -376,6 +383,7 @@ def integrate_texels(
     ramp_cut: float | None = None,
     second_safety: float = SECOND_SAFETY,
     shared_error: bool = True,
+    outer_grade: float | None = None,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -420,6 +428,8 @@ def integrate_texels(
         (``max_dtheta`` and ``max_piece`` are then not applied), except on dielectric texels
         with eta < 1 (issue 14, ninth round). ``shared_error`` (True; False before round 11):
         dielectric and split-sum texels report the larger of their two channels' estimates in both.
+        ``outer_grade`` (None: 32 at tolerances below 1e-5, 0 above; 0: off, the method before
+        round 11): the initial outer pieces cut where tan(theta_m) grows by more than this factor.
 
     Returns
     -------
@@ -441,6 +451,13 @@ def integrate_texels(
         raise ValueError(f"outer_first_safety must be a finite number > 0, got {outer_first_safety!r}")
     if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
         raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
+    if outer_grade is None:
+        # the grading at tolerances below 1e-5 (issue 14, round 11): without it grazing texels
+        # missed ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate); at 1e-5 and above
+        # the worst was 0.58, and the cuts cost +12 .. +20% evaluations at 1e-3 .. 1e-2
+        outer_grade = OUTER_GRADE if tol < 1e-5 else 0.0
+    if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
+        raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
     if not isinstance(shared_error, (bool, np.bool_)):
         raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):
@@ -488,7 +505,7 @@ def integrate_texels(
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
         int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
         int(inner_map),
-        float(ramp_cut), float(second_safety), int(bool(shared_error)), value, error, cost, detail,
+        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), value, error, cost, detail,
     ], dev)
 
     # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the

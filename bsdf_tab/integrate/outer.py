@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..model.distribution import dcos_v_of_theta
+from ..model.distribution import dcos_tan_of_v, dcos_v_of_theta
 from .integrand import (
     HALF_PI64, MODE_DIELECTRIC, TexelParams, fresnel_knee, mass_bound, tir_eta, transmission_breaks,
     vec24d,
@@ -65,9 +65,31 @@ def v_of_w(x: OuterX, w: wp.float64):
 
 
 @wp.func
+def _graded(p: TexelParams, ends: vec48d, ne: wp.int32, grade: wp.float64, tan_max: wp.float64):
+    """The pieces [ends[q], ends[q + 1]] cut where tan(theta_m) grows by more than ``grade`` within
+    one, at tan(theta_m) = tan(theta_m(ends[q])) grade^k, up to ``tan_max`` (grazing incidence:
+    (i.m) / cos(theta_m) grows like tan(theta_m), and the reflection horizon's structure sits at
+    cot(theta_m) ~ mu / 2, the top of the range; one piece would span it with no node there)."""
+    out = vec48d()
+    out[0] = ends[0]
+    no = int(0)
+    for q in range(ne):
+        hi = wp.min(dcos_tan_of_v(ends[q + 1], p.alpha, p.dist), tan_max)
+        t = dcos_tan_of_v(ends[q], p.alpha, p.dist)
+        # keep room for the later ends (47 at most)
+        while t > wp.float64(0.0) and t * grade < hi and no < 46 - (ne - q):
+            t = t * grade
+            no += 1
+            out[no] = dcos_v_of_theta(wp.atan(t), p.alpha, p.dist)
+        no += 1
+        out[no] = ends[q + 1]
+    return out, no
+
+
+@wp.func
 def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed: wp.int32,
                  max_dtheta_in: wp.float64, max_piece_in: wp.float64, bound_share: wp.float64,
-                 ramp_cut: wp.float64):
+                 ramp_cut: wp.float64, grade: wp.float64):
     """(ends, ne, skip): the initial outer intervals [ends[q], ends[q + 1]], q < ne, in v, and the
     mass bound of the D tail left out beyond ends[ne] (0 when nothing is left out).
 
@@ -178,6 +200,13 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
             ne += 1
         th_prev = wp.max(th_prev, tb)
     ne -= 1
+    if grade > one:
+        # up to cot(theta_m) = mu / 4 (the horizon's scale), at most 1 / (1e-3 tol): at mu = 0 the
+        # structure reaches theta_m = pi / 2, where the D cos mass left is below any tolerance
+        tan_max = wp.float64(1.0e3) / tol_total
+        if p.mu * tan_max > wp.float64(4.0):
+            tan_max = wp.float64(4.0) / p.mu
+        ends, ne = _graded(p, ends, ne, grade, tan_max)
     # the D tail: the longest run of last intervals whose mass bound fits in bound_share of the
     # budget is not integrated (value 0, error the bound: both are in [0, bound])
     skip = zero

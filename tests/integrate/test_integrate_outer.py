@@ -14,7 +14,7 @@ the variant that made it dishonest:
   reports 8.3e-9 for a true error of 1.0e-8 at tolerance 1e-7.
 
 And the outer first stage (issue 14 round 7): G7 accepted on ``OUTER_FIRST_SAFETY`` |G7 - I5| =
-32 |G7 - I5|; the harness found a grazing texel that the factor 8 of the inner stage leaves
+32 |G7 - I5| (128 since round 11); the harness found a grazing texel that the factor 8 of the inner stage leaves
 dishonest (true error 3.8e-6 reported as 2.8e-6 at tolerance 1e-5).
 """
 
