@@ -216,8 +216,9 @@ def tail_texels():
             rv, re = [r[0].value, r[1].value], [r[0].err, r[1].err]
         # on the floor's initial intervals (ramp_cut 0): the default start at tolerances >= 1e-3
         # (the G1 ramp cuts, issue 14 round 9) has fewer, longer ones, where a left-out tail
-        # may be inside a longer interval and save nothing
-        kw = {"dist": dist, "shadowing": shad, "tol": tol, "ramp_cut": 0.0}
+        # may be inside a longer interval and save nothing; and ungraded (outer_grade 0): the
+        # grading below 1e-5 (round 11) and the tails left out at >= 1e-4 never meet by default
+        kw = {"dist": dist, "shadowing": shad, "tol": tol, "ramp_cut": 0.0, "outer_grade": 0.0}
         if fres is not None and fres[0] != "one":
             kw.update(ftype=FRESNELS[fres[0]], fp0=fres[1], fp1=fres[2] if len(fres) > 2 else 0.0)
         out = {}
