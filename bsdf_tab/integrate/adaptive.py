@@ -55,7 +55,8 @@ than ``max_piece`` = 1/4 in v (1/2 at tolerances >= 1e-4): the v map packs theta
 a sliver near v = 1, where a single rule could otherwise step over the horizon structure
 unnoticed. At tolerances >= 1e-3 two cuts where o_r.n = ``RAMP_CUT`` alpha replace that floor
 (but on dielectric texels with eta < 1): they put the Smith G1 ramp at the reflection horizon, the
-structure the floor was there for, into an interval of its own. Below 1e-5 the initial pieces are
+structure the floor was there for, into an interval of its own; below 1e-3 the same cuts sit
+beside the floor (round 11). Below 1e-3 the initial pieces are
 also cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 32 within one, up to
 cot(theta_m) = mu / 4 (round 11: at grazing incidence (i.m) / cos(theta_m) grows like
 tan(theta_m) and the horizon's structure sits at cot(theta_m) ~ mu / 2, the top of the last
@@ -426,9 +427,10 @@ def integrate_texels(
         1e-3, 0 below; 0: off): outer cuts where o_r.n = kappa alpha at phi = pi and phi = 0,
         which isolate the Smith G1 ramp at the reflection horizon, in place of the floor
         (``max_dtheta`` and ``max_piece`` are then not applied), except on dielectric texels
-        with eta < 1 (issue 14, ninth round). ``shared_error`` (True; False before round 11):
+        with eta < 1 (issue 14, ninth round); kappa < 0: the cuts at |kappa| beside the floor (the
+        default below 1e-3, -2, since round 11). ``shared_error`` (True; False before round 11):
         dielectric and split-sum texels report the larger of their two channels' estimates in both.
-        ``outer_grade`` (None: 32 at tolerances below 1e-5, 0 above; 0: off, the method before
+        ``outer_grade`` (None: 32 at tolerances below 1e-3, 0 above; 0: off, the method before
         round 11): the initial outer pieces cut where tan(theta_m) grows by more than this factor.
 
     Returns
@@ -452,10 +454,11 @@ def integrate_texels(
     if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
         raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
     if outer_grade is None:
-        # the grading at tolerances below 1e-5 (issue 14, round 11): without it grazing texels
-        # missed ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate); at 1e-5 and above
-        # the worst was 0.58, and the cuts cost +12 .. +20% evaluations at 1e-3 .. 1e-2
-        outer_grade = OUTER_GRADE if tol < 1e-5 else 0.0
+        # the grading below 1e-3, with the floor (issue 14, round 11): without it grazing texels
+        # missed ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate), and at 1e-4 .. 1e-5
+        # a grazing Schlick texel 1.4e-6 (0.43 of its estimate; 1.46 once the ramp cuts sit beside
+        # the floor); at 1e-3 and 1e-2 (the ramp cuts' start) the cuts cost +12 .. +20%
+        outer_grade = OUTER_GRADE if tol < 1e-3 else 0.0
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
     if not isinstance(shared_error, (bool, np.bool_)):
@@ -480,10 +483,13 @@ def integrate_texels(
         inner_map = 2 if tol >= 1e-3 else 1
     if ramp_cut is None:
         # tolerances >= 1e-3: the G1 ramp cuts instead of the floor (issue 14, ninth round:
-        # -23 .. -30% evaluations on the harness at 1e-3 and 1e-2, honest; at 1e-4 not)
-        ramp_cut = RAMP_CUT if tol >= 1e-3 else 0.0
-    if not (math.isfinite(float(ramp_cut)) and float(ramp_cut) >= 0.0):
-        raise ValueError(f"ramp_cut must be a finite number >= 0 (0: off), got {ramp_cut!r}")
+        # -23 .. -30% evaluations on the harness at 1e-3 and 1e-2, honest; at 1e-4 not); below,
+        # beside the floor (round 11: a reflection with a dielectric Fresnel at mu 0.1, alpha
+        # 0.0024 missed 4.6e-7 in the ramp at the end of a floor piece at 1e-5 .. 5e-7, 1.29x its
+        # estimate at 5e-7)
+        ramp_cut = RAMP_CUT if tol >= 1e-3 else -RAMP_CUT
+    if not (math.isfinite(float(ramp_cut))):
+        raise ValueError(f"ramp_cut must be a finite number (0: off; < 0: beside the floor), got {ramp_cut!r}")
     if isinstance(inner_map, bool) or inner_map not in (0, 1, 2):
         raise ValueError(f"inner_map must be 0 (every end), 1 (the cuts) or 2 (the critical cut), got {inner_map!r}")
     if bound_share is None:

@@ -111,10 +111,11 @@ def initial_ends(p: TexelParams, mode: wp.int32, tol_total: wp.float64, n_fixed:
     ncand = int(3)
     max_dtheta = max_dtheta_in
     max_piece = max_piece_in
-    if ramp_cut > zero and not (mode == MODE_DIELECTRIC and p.eta < one):
-        max_dtheta = zero
-        max_piece = one
-        k_a = ramp_cut * p.alpha
+    if ramp_cut != zero and not (mode == MODE_DIELECTRIC and p.eta < one):
+        if ramp_cut > zero:
+            max_dtheta = zero
+            max_piece = one
+        k_a = wp.abs(ramp_cut) * p.alpha
         if k_a < one:
             # the reflected direction's G1 ramp (o_r.n from 0 to ~alpha): in its own interval
             ak = wp.acos(k_a)

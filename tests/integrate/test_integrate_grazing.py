@@ -4,9 +4,10 @@ At grazing incidence (i.m) / cos(theta_m) grows like tan(theta_m), and the refle
 structure sits at cot(theta_m) ~ mu / 2, at the top of the last outer piece: one piece spans tan
 theta_m from ~1 to ~2 / mu with no node where it matters. A stress scan (mu 0 .. 0.1, alpha 3e-4 ..
 2, every family, tolerances 1e-2 .. 1e-7; 13 440 texels) found 23 texel-tolerances reporting less
-than their true error, all at tolerances 1e-6 .. 1e-7, up to 6.5x. Below tolerance 1e-5 the
-outer pieces are now cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 32 (up to
-cot(theta_m) = mu / 4): 0 of them, worst 0.58 (at 1e-5, ungraded). Checked here against the
+than their true error, all at tolerances 1e-6 .. 1e-7, up to 6.5x (and at 1e-4 .. 1e-5 a grazing
+Schlick texel 1.4e-6 off, within its estimate only by the estimate's size). Below tolerance 1e-3
+(with the floor) the outer pieces are now cut where tan(theta_m) grows by more than
+``OUTER_GRADE`` = 32 (up to cot(theta_m) = mu / 4): 0 of them. Checked here against the
 independent reference (``tests/reference/microfacet_ref.py``), each texel also ungraded
 (``outer_grade=0``), where it fails; and the cuts themselves against tan(theta_m) written here.
 """
@@ -54,10 +55,10 @@ def test_grazing_texels_are_honest_with_the_grading(mode, mu, alpha, eta, tol, u
     assert _worst_ratio(mode, mu, alpha, eta, tol, outer_grade=0.0) > 1.0
 
 
-def test_grading_only_below_1e5():
+def test_grading_only_below_1e3():
     mu = np.array([0.0, 1e-6, 1e-3, 0.05, 0.5])
     alpha = np.array([0.3, 0.01, 0.1, 0.5, 0.05])
-    for tol in (1e-2, 1e-4, 1e-5):
+    for tol in (1e-2, 1e-3):
         a = integrate_texels("reflect", mu, alpha, tol=tol, return_cost=True)
         b = integrate_texels("reflect", mu, alpha, tol=tol, return_cost=True, outer_grade=0.0)
         assert all(np.array_equal(x, y) for x, y in zip(a, b)), tol
