@@ -27,6 +27,8 @@ from bsdf_tab.model import DISTRIBUTIONS, SHADOWINGS
 from tests.reference import microfacet_ref as ref
 
 GGX = DISTRIBUTIONS["ggx"]
+# the outer start before round 11's grading and ramp cuts beside the floor (below 1e-3)
+ROUND10_START = {"outer_grade": 0.0, "ramp_cut": 0.0}
 CORRELATED = SHADOWINGS["correlated"]
 
 
@@ -66,16 +68,19 @@ def test_normal_incidence_near_mirror_dielectric_is_honest():
     ("dielectric", 0.999999, 0.006217517570943483, 0.3, 1e-6),
 ])
 def test_outer_first_stage_factor_near_normal_incidence(mode, mu, alpha, eta, tol):
-    # measured 0.00 / 0.00 / 0.00 with the factor 128, and 1.47 / 1.42 / 1.74 with 32
+    # measured 0.00 / 0.00 / 0.00 with the factor 128, and 1.47 / 1.42 / 1.74 with 32 on the
+    # round's first start (no grading, no ramp cuts beside the floor: those resolve the first two
+    # at 1e-5 on their own since)
     assert _worst_ratio(mode, mu, alpha, eta, tol) <= 0.5
-    assert _worst_ratio(mode, mu, alpha, eta, tol, outer_first_safety=32.0) > 1.0
+    assert _worst_ratio(mode, mu, alpha, eta, tol, outer_first_safety=32.0, **ROUND10_START) > 1.0
 
 
 def test_transmission_reports_the_shared_estimate():
     mu, alpha, eta, tol = 0.999999999, 0.0012964804056478393, 0.3, 1e-5
-    # measured 0.02 shared, 4.2 (T) with each channel's own estimate
+    # measured 0.02 shared, 4.2 (T) with each channel's own estimate (on round 10's start: the
+    # grading below 1e-3 resolves this texel on its own since)
     assert _worst_ratio("dielectric", mu, alpha, eta, tol) <= 0.5
-    assert _worst_ratio("dielectric", mu, alpha, eta, tol, shared_error=False) > 2.0
+    assert _worst_ratio("dielectric", mu, alpha, eta, tol, shared_error=False, **ROUND10_START) > 2.0
 
 
 @pytest.mark.parametrize("mode", ["dielectric", "dfg", "reflect"])
