@@ -56,7 +56,7 @@ a sliver near v = 1, where a single rule could otherwise step over the horizon s
 unnoticed. At tolerances >= 1e-3 two cuts where o_r.n = ``RAMP_CUT`` alpha replace that floor
 (but on dielectric texels with eta < 1): they put the Smith G1 ramp at the reflection horizon, the
 structure the floor was there for, into an interval of its own; below 1e-3 the same cuts sit
-beside the floor (round 11). Below 1e-3 the initial pieces are
+beside the floor (round 11). At every tolerance the initial pieces are
 also cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 32 within one, up to
 cot(theta_m) = mu / 4 (round 11: at grazing incidence (i.m) / cos(theta_m) grows like
 tan(theta_m) and the horizon's structure sits at cot(theta_m) ~ mu / 2, the top of the last
@@ -143,7 +143,7 @@ OUTER_FIRST_SAFETY = 128.0  # the factor on the outer first stage's |G7 - I5| (d
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 SECOND_SAFETY = 16.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
-OUTER_GRADE = 32.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
+OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
@@ -430,8 +430,8 @@ def integrate_texels(
         with eta < 1 (issue 14, ninth round); kappa < 0: the cuts at |kappa| beside the floor (the
         default below 1e-3, -2, since round 11). ``shared_error`` (True; False before round 11):
         dielectric and split-sum texels report the larger of their two channels' estimates in both.
-        ``outer_grade`` (None: 32 at tolerances below 1e-3, 0 above; 0: off, the method before
-        round 11): the initial outer pieces cut where tan(theta_m) grows by more than this factor.
+        ``outer_grade`` (None: 32; 0: off, the method before round 11): the initial outer pieces
+        cut where tan(theta_m) grows by more than this factor.
 
     Returns
     -------
@@ -454,11 +454,11 @@ def integrate_texels(
     if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
         raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
     if outer_grade is None:
-        # the grading below 1e-3, with the floor (issue 14, round 11): without it grazing texels
-        # missed ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate), and at 1e-4 .. 1e-5
-        # a grazing Schlick texel 1.4e-6 (0.43 of its estimate; 1.46 once the ramp cuts sit beside
-        # the floor); at 1e-3 and 1e-2 (the ramp cuts' start) the cuts cost +12 .. +20%
-        outer_grade = OUTER_GRADE if tol < 1e-3 else 0.0
+        # the grading at every tolerance (issue 14, round 11): without it grazing texels missed
+        # ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate), a grazing Schlick texel
+        # 1.4e-6 at 1e-4 .. 1e-5, and a near-mirror one 1.05e-3 at 1e-3, beyond the tolerance (7x
+        # its estimate); the cuts cost +12 / +20% evaluations on the harness at 1e-3 / 1e-2
+        outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
     if not isinstance(shared_error, (bool, np.bool_)):
