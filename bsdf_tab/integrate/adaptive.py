@@ -57,7 +57,7 @@ unnoticed. At tolerances >= 1e-3 two cuts where o_r.n = ``RAMP_CUT`` alpha repla
 (but on dielectric texels with eta < 1): they put the Smith G1 ramp at the reflection horizon, the
 structure the floor was there for, into an interval of its own; below 1e-3 the same cuts sit
 beside the floor (round 11). At every tolerance the initial pieces are
-also cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 32 within one, up to
+also cut where tan(theta_m) grows by more than ``OUTER_GRADE`` = 16 within one, up to
 cot(theta_m) = mu / 4 (round 11: at grazing incidence (i.m) / cos(theta_m) grows like
 tan(theta_m) and the horizon's structure sits at cot(theta_m) ~ mu / 2, the top of the last
 piece, which a single rule spanned unresolved: texels up to 6.5x their estimate). docs/methods.md has the
@@ -457,7 +457,8 @@ def integrate_texels(
         # the grading at every tolerance (issue 14, round 11): without it grazing texels missed
         # ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate), a grazing Schlick texel
         # 1.4e-6 at 1e-4 .. 1e-5, and a near-mirror one 1.05e-3 at 1e-3, beyond the tolerance (7x
-        # its estimate); the cuts cost +12 / +20% evaluations on the harness at 1e-3 / 1e-2
+        # its estimate; the factor 32 itself left one at 6.8x, 16 none); the cuts cost +12 / +30%
+        # evaluations on the harness at 1e-3 / 1e-2, +0 .. +8% on the core tables
         outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
