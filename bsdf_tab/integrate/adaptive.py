@@ -24,7 +24,7 @@ the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapp
 adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise 4 of
-the Kronrod nodes are added and G7 is accepted with ``second_safety`` |G7 - I9| = 16 |G7 - I9|
+the Kronrod nodes are added and G7 is accepted with ``second_safety`` |G7 - I9| = 64 |G7 - I9|
 (I9 on 9 of the 11 values, degree 9: far sharper than |G7 - I5| on smooth integrands); otherwise
 the last 4 Kronrod nodes are added and the interval is K15 with the estimate below (the values
 reused, so a rejected stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
@@ -141,7 +141,7 @@ wp.set_module_options({
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
 OUTER_FIRST_SAFETY = 128.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7 and 11)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
-SECOND_SAFETY = 16.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
+SECOND_SAFETY = 64.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
@@ -411,7 +411,7 @@ def integrate_texels(
         estimate; < 0: no bounds, the method before issue 14's third round). ``inner_first``: the
         inner first stage (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always, before issue 14's round 4);
         ``first_share`` (1): its share of an interval's tolerance; ``first_safety`` (8): its factor;
-        ``second_safety`` (16; 0: off, the method before issue 14's round 11): the second stage's
+        ``second_safety`` (64; 0: off, the method before issue 14's round 11): the second stage's
         factor on |G7 - I9|.
         ``outer_map`` (True): the outer rules through the smoothstep map of their initial piece
         (False: linear, the method before issue 14's sixth round); ``inner_carry`` (2; 4 in the

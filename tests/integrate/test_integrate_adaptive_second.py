@@ -2,8 +2,8 @@
 
 An inner G7 that its first stage (``first_safety`` |G7 - I5|) rejects gets four Kronrod nodes
 more, +-XGK[2] and +-XGK[4], and is accepted with the error ``second_safety`` |G7 - I9| where that
-fits; I9 is the interpolatory rule on G7's nodes but +-XGK[3] and those four (nine nodes, degree
-9). Otherwise the last four Kronrod nodes complete K15: no evaluation is wasted at any stage.
+fits (``second_safety`` = 64); I9 is the interpolatory rule on G7's nodes but +-XGK[3] and those
+four (nine nodes, degree 9). Otherwise the last four Kronrod nodes complete K15: no evaluation is wasted at any stage.
 Checked here, against computations written apart from the code under test:
 
 * I9's weights: solved here from the monomial moments on its nine nodes (not through the
@@ -114,8 +114,9 @@ def texels():
 @pytest.mark.parametrize("tol", [1e-2, 1e-3, 5e-7])
 def test_three_stage_is_honest_and_cheaper(texels, tol):
     total_new, total_old = _honest_and_counted(texels, tol, {"second_safety": 0.0})
-    # measured on these 26 texels when written: 0.920 / 0.917 / 0.954 of the evaluations without it
-    limit = {1e-2: 0.95, 1e-3: 0.95, 5e-7: 0.98}[tol]
+    # measured on these 26 texels: 0.920 / 0.917 / 0.954 of the evaluations without it at the
+    # factor 16, 0.962 / 0.959 / 0.959 at 64 (shipped: 16 left a texel at eta 0.99988 at 1.58x)
+    limit = {1e-2: 0.98, 1e-3: 0.98, 5e-7: 0.98}[tol]
     assert total_new <= limit * total_old, (tol, total_new, total_old)
 
 
