@@ -91,7 +91,7 @@ split-sum (A, B) channels both report the larger of their two estimates (``share
 round 11): they share F, their errors are near opposites where G is ~1, and one channel's
 estimate saw what the other's missed. Texel honesty rests on the outer level and the carry,
 measured, not proven: on 1634 reference texels (``bench/accuracy_honesty.py``, 1e-2 .. 1e-7)
-none reports less than its true error, worst ratio 0.46 below 1e-4 (docs/methods.md, also for
+none reports less than its true error, worst ratio 0.20 below 1e-4 (docs/methods.md, also for
 the estimates that under-reported: the decay ratio, r^6, the outer first stage at 8 and at 32
 |G7 - I5| near normal incidence, each channel on its own). Rule applications are capped per texel (``max_rules_outer``,
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
@@ -430,7 +430,7 @@ def integrate_texels(
         with eta < 1 (issue 14, ninth round); kappa < 0: the cuts at |kappa| beside the floor (the
         default below 1e-3, -2, since round 11). ``shared_error`` (True; False before round 11):
         dielectric and split-sum texels report the larger of their two channels' estimates in both.
-        ``outer_grade`` (None: 32; 0: off, the method before round 11): the initial outer pieces
+        ``outer_grade`` (None: 16; 0: off, the method before round 11): the initial outer pieces
         cut where tan(theta_m) grows by more than this factor.
 
     Returns
