@@ -123,8 +123,8 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_stage, gk_abscissa, gk_error, gk_error_decay,
-    gk_resasc, make_global_bisection, vec16d,
+    GAMMA14_D, WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_stage, gk_abscissa, gk_error, gk_error_decay,
+    gk_resasc, legendre_tail, make_global_bisection, tail_ratio, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
@@ -144,6 +144,8 @@ FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/meth
 SECOND_SAFETY = 64.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
+OUTER_TAIL = 0.1  # the outer K15's floor on |K15 - G7| from the Legendre tail (docs/methods.md, issue 14, round 12)
+NORMAL_MAP = 0.05  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
@@ -210,6 +212,16 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
         eg += WG7_D[j % 8] * e
     if accepted != 0:
         return g, d, rules
+    if x.tail > wp.float64(0.0):
+        # |K15 - G7| is GAMMA14 |c14| (the interpolant's top coefficient): where c14 alone is small
+        # by accident and c13 is not, the difference is floored at what the tail pair predicts
+        t0 = legendre_tail(f0)
+        t1 = legendre_tail(f1)
+        floor = x.tail * GAMMA14_D * wp.vec2d(t0[0] * wp.min(wp.float64(1.0), tail_ratio(t0)),
+                                              t1[0] * wp.min(wp.float64(1.0), tail_ratio(t1)))
+        for c in range(2):
+            if wp.abs(rk[c] - rg[c]) < floor[c]:
+                rg[c] = rk[c] - floor[c]
     resasc = gk_resasc(f0, f1, rk)
     est = gk_error(rk * hl, rg * hl, resasc * hl, p.err_model) + ei * hl
     if p.err_model == 2:
@@ -267,6 +279,8 @@ def texel_kernel(
     second_safety: wp.float64,
     shared_error: wp.int32,
     outer_grade: wp.float64,
+    outer_tail: wp.float64,
+    normal_map: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -290,6 +304,7 @@ def texel_kernel(
     p.first_safety = first_safety
     p.inner_map = inner_map
     p.second_safety = second_safety
+    p.normal_map = normal_map
     # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
     # the budget: inner_share for the inner phi integrals (summed through the outer weights, at
     # most tol_in in total), the rest for the outer v quadrature
@@ -312,6 +327,7 @@ def texel_kernel(
         ox.first = 0
     ox.thr = wp.float64(0.0)
     ox.safety = outer_first_safety
+    ox.tail = outer_tail
     if ne > 0:
         # the first stage's budget per unit w: outer_first_spread times the texel's spread evenly
         # over the initial pieces (at most all of it); the global loop still bisects until the
@@ -385,6 +401,8 @@ def integrate_texels(
     second_safety: float = SECOND_SAFETY,
     shared_error: bool = True,
     outer_grade: float | None = None,
+    outer_tail: float = OUTER_TAIL,
+    normal_map: float = NORMAL_MAP,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -431,7 +449,11 @@ def integrate_texels(
         default below 1e-3, -2, since round 11). ``shared_error`` (True; False before round 11):
         dielectric and split-sum texels report the larger of their two channels' estimates in both.
         ``outer_grade`` (None: 16; 0: off, the method before round 11): the initial outer pieces
-        cut where tan(theta_m) grows by more than this factor.
+        cut where tan(theta_m) grows by more than this factor. ``outer_tail`` (0.1; 0: off, before
+        round 12): the outer |K15 - G7| floored at that factor times GAMMA14 (|c13| + |c14|)
+        min(1, r), the interpolant's tail pair. ``normal_map`` (0.05; 0: off, before round 12):
+        Beckmann texels map the inner piece's end phi = 0 where the point o_r = n, at phi = i y0,
+        is within that share of the piece (y0 < normal_map b).
 
     Returns
     -------
@@ -462,6 +484,9 @@ def integrate_texels(
         outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
+    for name, value in (("outer_tail", outer_tail), ("normal_map", normal_map)):
+        if isinstance(value, bool) or not (math.isfinite(float(value)) and float(value) >= 0.0):
+            raise ValueError(f"{name} must be a finite number >= 0 (0: off), got {value!r}")
     if not isinstance(shared_error, (bool, np.bool_)):
         raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):
@@ -512,7 +537,7 @@ def integrate_texels(
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
         int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
         int(inner_map),
-        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), value, error, cost, detail,
+        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), float(outer_tail), float(normal_map), value, error, cost, detail,
     ], dev)
 
     # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the

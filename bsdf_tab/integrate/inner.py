@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..model.distribution import BECKMANN
 from .integrand import (
     MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, fresnel_knee, integrand_cos, integrand_phi, phi_of_c,
     tir_eta,
@@ -215,6 +216,15 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
                 ends = wp.where(a > zero, 1, 0) + wp.where(q < nc, 2, 0)
             elif p.inner_map == 2:
                 ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
+            if a == zero and p.dist == BECKMANN and p.normal_map > zero:
+                # Beckmann's Lambda is not analytic where o_r = n (exp(-cot^2 theta_o / alpha^2)):
+                # at phi = i y0, cosh(y0) = ((1 + mu) / (2 cos theta_m) - mu cos theta_m) / ss,
+                # near phi = 0 when theta_m ~ theta_i / 2. Closer than normal_map times the piece,
+                # G7 and K15 agreed there to 1e-8 while both missed 1.7e-7 (issue 14, round 12):
+                # phi = 0 is mapped, which moves the point away from the nodes' reach
+                e0 = wp.exp(p.normal_map * b)
+                if (one + p.mu) / (wp.float64(2.0) * cm) - p.mu * cm < wp.float64(0.5) * (e0 + one / e0) * ss:
+                    ends = ends | 1
             x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero)
             r, e, used, used_ref = _adaptive_piece(p, x, wp.vec2d(zero, one), 1, tp, max_rules, int(0))
             total += r

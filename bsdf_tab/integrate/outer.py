@@ -50,6 +50,7 @@ class OuterX:
     first: wp.int32  # the outer first stage (0: off; 5: G7 accepted on first_safety |G7 - I5|)
     thr: wp.float64  # its tolerance per unit w
     safety: wp.float64  # its factor on |G7 - I5|
+    tail: wp.float64  # the factor on the Legendre-tail floor of |K15 - G7| (0: off)
     ends: vec48d
 
 

@@ -83,6 +83,10 @@ vec16d = wp.types.vector(length=16, dtype=wp.float64)
 _LEG_PAIR = [np.append(0.5 * (row[:7] + (1 if k % 2 == 0 else -1) * row[8:15]), row[7] if k % 2 == 0 else 0.0)
              for k, row in zip(range(9, 15), LEG_TAIL)]
 LEG9_D, LEG10_D, LEG11_D, LEG12_D, LEG13_D, LEG14_D = (wp.constant(vec8d(*row.tolist())) for row in _LEG_PAIR)
+# |G7 applied to the orthonormal P_14| on [-1, 1]: K15 - G7 of the 15-node interpolant is c14 times
+# it (K15 integrates the interpolant exactly, G7 every degree below 14)
+GAMMA14 = float(abs(np.sum(GK_WG * _LEG_V[:, 14])))
+GAMMA14_D = wp.constant(wp.float64(GAMMA14))
 
 
 @wp.func
@@ -95,13 +99,10 @@ def gk_abscissa(ctr: wp.float64, hl: wp.float64, j: wp.int32):
 
 
 @wp.func
-def decay_ratio(f: vec16d):
-    """How fast the Legendre coefficients of the 15-node interpolant of ``f`` (values at the
-    nodes in GK_X order) fall over their last six degrees: r = max(A / B, B / C) with
-    A = |c13| + |c14|, B = |c11| + |c12|, C = |c9| + |c10| (pairs, so that a function even or
-    odd about the centre is not misread). r >= 1 (or 1 when B or C vanish while A does not)
-    means the values do not resolve the function; 0 when A = 0 (for a polynomial of degree <= 8
-    the six coefficients are rounding noise, and so is |K15 - G7|)."""
+def legendre_tail(f: vec16d):
+    """(A, B, C) = (|c13| + |c14|, |c11| + |c12|, |c9| + |c10|): the last six Legendre
+    coefficients of the 15-node interpolant of ``f`` (orthonormal basis, values at the nodes in
+    GK_X order) in pairs."""
     c9 = wp.float64(0.0)
     c10 = wp.float64(0.0)
     c11 = wp.float64(0.0)
@@ -121,15 +122,30 @@ def decay_ratio(f: vec16d):
     c10 += LEG10_D[7] * f[7]
     c12 += LEG12_D[7] * f[7]
     c14 += LEG14_D[7] * f[7]
-    a = wp.abs(c13) + wp.abs(c14)
-    b = wp.abs(c11) + wp.abs(c12)
-    c = wp.abs(c9) + wp.abs(c10)
-    if a <= wp.float64(0.0):
+    return wp.vec3d(wp.abs(c13) + wp.abs(c14), wp.abs(c11) + wp.abs(c12), wp.abs(c9) + wp.abs(c10))
+
+
+@wp.func
+def tail_ratio(t: wp.vec3d):
+    """max(A / B, B / C) of :func:`legendre_tail`'s pairs; 0 when A = 0, 1 when B or C vanish
+    while A does not."""
+    if t[0] <= wp.float64(0.0):
         return wp.float64(0.0)
-    if b <= wp.float64(0.0) or c <= wp.float64(0.0):
+    if t[1] <= wp.float64(0.0) or t[2] <= wp.float64(0.0):
         # a top coefficient without lower ones: no decay to trust (and no division by 0)
         return wp.float64(1.0)
-    return wp.max(a / b, b / c)
+    return wp.max(t[0] / t[1], t[1] / t[2])
+
+
+@wp.func
+def decay_ratio(f: vec16d):
+    """How fast the Legendre coefficients of the 15-node interpolant of ``f`` (values at the
+    nodes in GK_X order) fall over their last six degrees: r = max(A / B, B / C) with
+    A = |c13| + |c14|, B = |c11| + |c12|, C = |c9| + |c10| (pairs, so that a function even or
+    odd about the centre is not misread). r >= 1 (or 1 when B or C vanish while A does not)
+    means the values do not resolve the function; 0 when A = 0 (for a polynomial of degree <= 8
+    the six coefficients are rounding noise, and so is |K15 - G7|)."""
+    return tail_ratio(legendre_tail(f))
 
 
 @wp.func
