@@ -20,7 +20,9 @@ split at those points, each piece mapped at the ends that need it (``inner_map``
 :func:`bsdf_tab.integrate.quadrature.end_map`: s = t^2 at a cut, which makes the square root of
 Fresnel at the critical angle linear and the horizons' kinks smooth; no map at phi = 0 or pi,
 where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
-the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped), and integrated by
+the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped; but Beckmann
+texels map phi = 0 where the point o_r = n, at phi = i y0, lies within ``NORMAL_MAP`` = 0.05 of
+the piece: Beckmann's Lambda is not analytic at theta_o = 0, round 12), and integrated by
 adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise 4 of
@@ -77,7 +79,10 @@ attained in the limit alpha -> 0 at normal incidence, so the true / reported rat
 tail can reach 1 there (measured 0.9997). ``bound_share`` < 0 switches both off, 0 only (2).
 
 Error estimate: the outer v level uses QUADPACK's rescaling of |K15 - G7| (err_model 1,
-default; 0: |K15 - G7| itself; 2: as the inner default), summed over the accepted intervals,
+default; 0: |K15 - G7| itself; 2: as the inner default), |K15 - G7| first floored at
+``OUTER_TAIL`` GAMMA14 (|c13| + |c14|) min(1, r) = 0.1 of what the interpolant's last Legendre pair
+predicts (|K15 - G7| is exactly GAMMA14 |c14|, one coefficient that can be small by accident while
+c13 is not: a Beckmann texel 2.46x under its error at 1e-6, issue 14 round 12), summed over the accepted intervals,
 plus the inner estimates carried through the outer weights; floored at 1e-9 (tolerances >= 1e-7;
 down to 1e-10 below). The inner phi level (``err_model_inner`` 2) scales |K15 - G7| (the error
 of G7) by min(1, ``err_safety`` r^``err_power``) = min(1, r^3), r the decay ratio of the last
