@@ -85,12 +85,12 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_G7, f0, f1)
     # (g = 0: 7 or 11 zeros may miss a support between the nodes; K15 looks at 15 points)
     if p.inner_first > 0:
-        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
+        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety, p.first_tail)
         if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(7)
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_S2, f0, f1)
     if p.inner_first > 0 and p.second_safety > wp.float64(0.0):
-        d = second_stage(f0, f1, g, hl, p.second_safety)
+        d = second_stage(f0, f1, g, hl, p.second_safety, p.second_tail)
         if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
             return g, d, int(11)
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_K - MASK_S2, f0, f1)

@@ -94,6 +94,8 @@ class TexelParams:
     first_safety: wp.float64  # adaptive only: the factor on the first stage's |G7 - I5| (make_texel: 1)
     inner_map: wp.int32  # adaptive only: the inner pieces' map
     second_safety: wp.float64  # adaptive only: the inner second stage's factor on |G7 - I9| (0: off)
+    first_tail: wp.float64  # adaptive only: the inner first stage's factor on its tail floor (0: off)
+    second_tail: wp.float64  # adaptive only: the inner second stage's factor on its tail floor (0: off)
     normal_map: wp.float64  # adaptive only: map phi = 0 where o_r = n is this close (Beckmann; 0: off)
     bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 

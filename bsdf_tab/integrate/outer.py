@@ -51,6 +51,7 @@ class OuterX:
     thr: wp.float64  # its tolerance per unit w
     safety: wp.float64  # its factor on |G7 - I5|
     tail: wp.float64  # the factor on the Legendre-tail floor of |K15 - G7| (0: off)
+    first_tail: wp.float64  # the first stage's factor on its tail floor of |G7 - I5| (0: off)
     ends: vec48d
 
 

@@ -171,8 +171,44 @@ def gk_error_decay(rk: wp.vec2d, rg: wp.vec2d, r: wp.vec2d, safety: wp.float64, 
     return out
 
 
+# The 7 Gauss values' interpolant in the orthonormal Legendre basis: c_k = sum_j WG7_j P_k(x_j) f_j
+# for k <= 6 (G7 is exact to degree 13), as weights in the 15-node order (zero at Kronrod nodes).
+# |G7 - I5| is GAMMA6 |c6| (I5 exact to degree 5, G7 to 13): the degree-6 term alone, blind to an
+# odd degree-5 one (issue 14, round 12)
+_P7 = [np.polynomial.legendre.legval(GK_X, [0.0] * k + [1.0]) * math.sqrt((2.0 * k + 1.0) / 2.0) for k in range(7)]
+G7_LEG = [GK_WG * _P7[k] for k in range(7)]
+GAMMA6 = float(abs(np.sum(np.concatenate([WI5, WI5[:7]]) * _P7[6])))
+GAMMA6_D = wp.constant(wp.float64(GAMMA6))
+vec15d = wp.types.vector(length=15, dtype=wp.float64)
+G7L3_D, G7L4_D, G7L5_D, G7L6_D = (wp.constant(vec15d(*G7_LEG[k].tolist())) for k in (3, 4, 5, 6))
+
+
 @wp.func
-def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety: wp.float64):
+def first_tail(f: vec16d):
+    """(|c5| + |c6|) min(1, r) of the 7 Gauss values' interpolant (orthonormal Legendre), r =
+    (|c5| + |c6|) / (|c3| + |c4|) (1 when the lower pair vanishes and the upper does not)."""
+    c3 = wp.float64(0.0)
+    c4 = wp.float64(0.0)
+    c5 = wp.float64(0.0)
+    c6 = wp.float64(0.0)
+    for j in range(15):
+        if j % 2 == 1:
+            c3 += G7L3_D[j] * f[j]
+            c4 += G7L4_D[j] * f[j]
+            c5 += G7L5_D[j] * f[j]
+            c6 += G7L6_D[j] * f[j]
+    a = wp.abs(c5) + wp.abs(c6)
+    b = wp.abs(c3) + wp.abs(c4)
+    if a <= wp.float64(0.0):
+        return wp.float64(0.0)
+    if b <= wp.float64(0.0):
+        return a
+    return a * wp.min(wp.float64(1.0), a / b)
+
+
+@wp.func
+def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety: wp.float64,
+                tail: wp.float64):
     """The first stage of the two-stage rule: G7 from the 7 Gauss nodes (odd j in the 15-node
     order of ``f0``, ``f1``) and its error ``safety`` |G7 - I| (I: :data:`WI5` for ``which`` 5,
     else :data:`WI3`, on the same nodes), both times the half length ``hl``; the error floored at
@@ -196,9 +232,14 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
                 q += WI5_D[j % 8] * f
             else:
                 q += WI3_D[j % 8] * f
+    dq = wp.vec2d(wp.abs(g[0] - q[0]), wp.abs(g[1] - q[1]))
+    if tail > wp.float64(0.0) and which == 5:
+        # |G7 - I5| = GAMMA6 |c6|: floored at ``tail`` GAMMA6 (|c5| + |c6|) min(1, r)
+        dq[0] = wp.max(dq[0], tail * GAMMA6_D * first_tail(f0))
+        dq[1] = wp.max(dq[1], tail * GAMMA6_D * first_tail(f1))
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
-        out[c] = wp.max(safety * wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
+        out[c] = wp.max(safety * dq[c] * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
     return g * hl, out
 
 
@@ -211,8 +252,48 @@ WI9 = _interpolatory([1, 2, 4, 5, 7])
 WI9_D = wp.constant(vec8d(*WI9.tolist()))
 
 
+# the 11 values of the second stage (G7's and +-XGK[2], +-XGK[4]; 15-node order) and their
+# interpolant's Legendre coefficients c7 .. c10 (orthonormal) as weights in the 15-node order:
+# |G7 - I9| is GAMMA10 |c10| (I9 exact to degree 9), blind to an odd degree-9 term (round 12)
+S11 = [1, 2, 3, 4, 5, 7, 9, 10, 11, 12, 13]
+_V11 = np.polynomial.legendre.legvander(GK_X[S11], 10) * np.sqrt((2.0 * np.arange(11) + 1.0) / 2.0)
+_V11I = np.linalg.inv(_V11)
+S11_LEG = []
+for _k in range(7, 11):
+    _row = np.zeros(15)
+    _row[S11] = _V11I[_k]
+    S11_LEG.append(_row)
+GAMMA10 = float(abs(np.sum(np.concatenate([WI9, WI9[:7]]) * np.polynomial.legendre.legval(GK_X, [0.0] * 10 + [1.0])
+                           * math.sqrt(21.0 / 2.0))))
+GAMMA10_D = wp.constant(wp.float64(GAMMA10))
+S11L7_D, S11L8_D, S11L9_D, S11L10_D = (wp.constant(vec15d(*row.tolist())) for row in S11_LEG)
+
+
 @wp.func
-def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp.float64):
+def second_tail(f: vec16d):
+    """(|c9| + |c10|) min(1, r) of the 11 second-stage values' interpolant (orthonormal
+    Legendre), r = (|c9| + |c10|) / (|c7| + |c8|) (1 when the lower pair vanishes)."""
+    c7 = wp.float64(0.0)
+    c8 = wp.float64(0.0)
+    c9 = wp.float64(0.0)
+    c10 = wp.float64(0.0)
+    for j in range(15):
+        if j != 0 and j != 6 and j != 8 and j != 14:
+            c7 += S11L7_D[j] * f[j]
+            c8 += S11L8_D[j] * f[j]
+            c9 += S11L9_D[j] * f[j]
+            c10 += S11L10_D[j] * f[j]
+    a = wp.abs(c9) + wp.abs(c10)
+    b = wp.abs(c7) + wp.abs(c8)
+    if a <= wp.float64(0.0):
+        return wp.float64(0.0)
+    if b <= wp.float64(0.0):
+        return a
+    return a * wp.min(wp.float64(1.0), a / b)
+
+
+@wp.func
+def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp.float64, tail: wp.float64):
     """The second stage of the three-stage rule: G7 (``g``, times ``hl`` already) with the error
     ``safety`` |G7 - I9|, I9 the interpolatory rule on G7's nodes but +-XGK[3] and the Kronrod
     nodes +-XGK[2], +-XGK[4] (j = 1, 2, 4, 5, 7, 9, 10, 12, 13 of ``f0``, ``f1``); floored at
@@ -221,9 +302,14 @@ def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp
     for j in range(15):
         if j == 1 or j == 2 or j == 4 or j == 5 or j == 7 or j == 9 or j == 10 or j == 12 or j == 13:
             q += WI9_D[j % 8] * wp.vec2d(f0[j], f1[j])
+    dq = wp.vec2d(wp.abs(g[0] - q[0] * hl), wp.abs(g[1] - q[1] * hl))
+    if tail > wp.float64(0.0):
+        # |G7 - I9| = GAMMA10 |c10|: floored at ``tail`` GAMMA10 (|c9| + |c10|) min(1, r)
+        dq[0] = wp.max(dq[0], tail * GAMMA10_D * second_tail(f0) * hl)
+        dq[1] = wp.max(dq[1], tail * GAMMA10_D * second_tail(f1) * hl)
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
-        out[c] = wp.max(safety * wp.abs(g[c] - q[c] * hl), wp.float64(1.1e-14) * wp.abs(g[c]))
+        out[c] = wp.max(safety * dq[c], wp.float64(1.1e-14) * wp.abs(g[c]))
     return out
 
 
