@@ -36,9 +36,10 @@ each outer rule works through a smoothstep map of its initial piece (issue 14, s
 outer integrand's kinks and half-integer powers sit at the piece ends, where the map makes them
 smooth; with the round's other changes -36% evaluations at 5e-7 on the 1634-texel harness).
 The outer rule is two-stage (issue 14, seventh round): its 7 Gauss nodes first, G7 accepted
-when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 128 |G7 - I5| plus the carried inner estimates fits in
+when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 64 |G7 - I5| plus the carried inner estimates fits in
 the interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported,
-and 32 near normal incidence, where the inner integrals carry almost nothing: round 11), except
+and 32 near normal incidence, where the inner integrals carry almost nothing: round 11, which
+took it to 128; 64 since round 12's floor on |G7 - I5|, below: 32 left one texel at 1.25x), except
 at mu = 1, where every outer interval is K15 (each inner integral is one evaluation there):
 ``OUTER_FIRST_SPREAD`` = 4 times its even share, at most the whole budget, since the global loop
 still refines until the pieces' estimates sum to the budget (issue 14, tenth round: -4 .. -10%
@@ -144,7 +145,7 @@ wp.set_module_options({
 })
 
 INNER_CARRY = 2.0  # the factor on the inner estimates in a texel's error (docs/methods.md, issue 14, rounds 6-7)
-OUTER_FIRST_SAFETY = 128.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7 and 11)
+OUTER_FIRST_SAFETY = 64.0  # the factor on the outer first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 7, 11 and 12)
 FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/methods.md, issue 14, rounds 4-5)
 SECOND_SAFETY = 64.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
@@ -449,8 +450,8 @@ def integrate_texels(
         (False: linear, the method before issue 14's sixth round); ``inner_carry`` (2; 4 in the
         sixth round): the factor on the inner estimates in the texel's error (the inner
         tolerance divided by it). ``outer_first`` (5: |G7 - I5|; 3: |G7 - I3|; 0: K15 always,
-        before issue 14's seventh round; at mu = 1 always 0) and ``outer_first_safety`` (128; 32
-        before round 11): the outer first stage;
+        before issue 14's seventh round; at mu = 1 always 0) and ``outer_first_safety`` (64; 32
+        before round 11, 128 in it): the outer first stage;
         ``outer_first_spread`` (4; 1 before issue 14's tenth round): its share of the budget, that
         many times an even share over the initial pieces (at most all of it).
         ``inner_map``: which ends of an inner phi piece are mapped (None: 2 at tolerances >=
