@@ -129,7 +129,7 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    GAMMA14_D, WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_stage, gk_abscissa, gk_error, gk_error_decay,
+    GAMMA14_D, WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_floor, first_stage, gk_abscissa, gk_error, gk_error_decay,
     gk_resasc, legendre_tail, make_global_bisection, tail_ratio, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
@@ -203,11 +203,16 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
         if k >= 7:
             j = 2 * (k - 7)
         if k == 7 and x.first > 0:
-            g, d = first_stage(f0, f1, hl, x.first, x.safety, x.first_tail)
+            g, d = first_stage(f0, f1, hl, x.first, x.safety)
             d = d + eg * hl
             if wp.max(d[0], d[1]) <= x.thr * (wb - wa):
-                accepted = 1
-                break
+                if x.first_tail > wp.float64(0.0) and x.first == 5:
+                    # |G7 - I5| is one coefficient: floored by the 7 values' last Legendre pair (round 12)
+                    fl = first_floor(f0, f1, hl) * (x.safety * x.first_tail) + eg * hl
+                    d = wp.vec2d(wp.max(d[0], fl[0]), wp.max(d[1], fl[1]))
+                if wp.max(d[0], d[1]) <= x.thr * (wb - wa):
+                    accepted = 1
+                    break
         f, e, used = _v_node(p, x, ctr, hl, j)
         rules += used
         f0[j] = f[0]

@@ -21,8 +21,8 @@ from .integrand import (
     tir_eta,
 )
 from .quadrature import (
-    WG7_D, WGK_D, decay_ratio, end_map, first_stage, gk_abscissa, gk_error, gk_error_decay, gk_resasc,
-    make_global_bisection, second_stage, vec8d, vec16d,
+    WG7_D, WGK_D, decay_ratio, end_map, first_floor, first_stage, gk_abscissa, gk_error, gk_error_decay,
+    gk_resasc, make_global_bisection, second_floor, second_stage, vec8d, vec16d,
 )
 
 # no kernel of this module is differentiated: no adjoint code
@@ -84,15 +84,26 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_G7, f0, f1)
     # (g = 0: 7 or 11 zeros may miss a support between the nodes; K15 looks at 15 points)
+    thr = x[5] * (tb - ta)
     if p.inner_first > 0:
-        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety, p.first_tail)
-        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
-            return g, d, int(7)
+        g, d = first_stage(f0, f1, hl, p.inner_first, p.first_safety)
+        if wp.max(d[0], d[1]) <= thr and (g[0] != 0.0 or g[1] != 0.0):
+            if p.first_tail > wp.float64(0.0) and p.inner_first == 5:
+                # the floor from the 7 values' last Legendre pair (round 12), formed only here
+                fl = first_floor(f0, f1, hl) * (p.first_safety * p.first_tail)
+                d = wp.vec2d(wp.max(d[0], fl[0]), wp.max(d[1], fl[1]))
+            if wp.max(d[0], d[1]) <= thr:
+                return g, d, int(7)
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_S2, f0, f1)
     if p.inner_first > 0 and p.second_safety > wp.float64(0.0):
-        d = second_stage(f0, f1, g, hl, p.second_safety, p.second_tail)
-        if wp.max(d[0], d[1]) <= x[5] * (tb - ta) and (g[0] != 0.0 or g[1] != 0.0):
-            return g, d, int(11)
+        d = second_stage(f0, f1, g, hl, p.second_safety)
+        if wp.max(d[0], d[1]) <= thr and (g[0] != 0.0 or g[1] != 0.0):
+            if p.second_tail > wp.float64(0.0):
+                # |G7 - I9| is one coefficient: floored by its Legendre pair (round 12), formed only here
+                fl = second_floor(f0, f1, hl) * (p.second_safety * p.second_tail)
+                d = wp.vec2d(wp.max(d[0], fl[0]), wp.max(d[1], fl[1]))
+            if wp.max(d[0], d[1]) <= thr:
+                return g, d, int(11)
     f0, f1 = _phi_nodes(p, x, ctr, hl, MASK_K - MASK_S2, f0, f1)
     for j in range(15):
         jj = j

@@ -207,8 +207,7 @@ def first_tail(f: vec16d):
 
 
 @wp.func
-def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety: wp.float64,
-                tail: wp.float64):
+def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety: wp.float64):
     """The first stage of the two-stage rule: G7 from the 7 Gauss nodes (odd j in the 15-node
     order of ``f0``, ``f1``) and its error ``safety`` |G7 - I| (I: :data:`WI5` for ``which`` 5,
     else :data:`WI3`, on the same nodes), both times the half length ``hl``; the error floored at
@@ -232,15 +231,18 @@ def first_stage(f0: vec16d, f1: vec16d, hl: wp.float64, which: wp.int32, safety:
                 q += WI5_D[j % 8] * f
             else:
                 q += WI3_D[j % 8] * f
-    dq = wp.vec2d(wp.abs(g[0] - q[0]), wp.abs(g[1] - q[1]))
-    if tail > wp.float64(0.0) and which == 5:
-        # |G7 - I5| = GAMMA6 |c6|: floored at ``tail`` GAMMA6 (|c5| + |c6|) min(1, r)
-        dq[0] = wp.max(dq[0], tail * GAMMA6_D * first_tail(f0))
-        dq[1] = wp.max(dq[1], tail * GAMMA6_D * first_tail(f1))
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
-        out[c] = wp.max(safety * dq[c] * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
+        out[c] = wp.max(safety * wp.abs(g[c] - q[c]) * hl, wp.float64(1.1e-14) * wp.abs(g[c] * hl))
     return g * hl, out
+
+
+@wp.func
+def first_floor(f0: vec16d, f1: vec16d, hl: wp.float64):
+    """GAMMA6 (|c5| + |c6|) min(1, r) hl per channel (:func:`first_tail`): what the 7 values'
+    last pair predicts for |G7 - I5| = GAMMA6 |c6|, the floor of the first stage's difference
+    (round 12). Formed only where a stage would accept (the callers test without it first)."""
+    return wp.vec2d(GAMMA6_D * first_tail(f0) * hl, GAMMA6_D * first_tail(f1) * hl)
 
 
 # the second stage's rule (issue 14, round 11): interpolatory on G7's nodes but +-XGK[3], and the
@@ -293,7 +295,7 @@ def second_tail(f: vec16d):
 
 
 @wp.func
-def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp.float64, tail: wp.float64):
+def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp.float64):
     """The second stage of the three-stage rule: G7 (``g``, times ``hl`` already) with the error
     ``safety`` |G7 - I9|, I9 the interpolatory rule on G7's nodes but +-XGK[3] and the Kronrod
     nodes +-XGK[2], +-XGK[4] (j = 1, 2, 4, 5, 7, 9, 10, 12, 13 of ``f0``, ``f1``); floored at
@@ -302,15 +304,17 @@ def second_stage(f0: vec16d, f1: vec16d, g: wp.vec2d, hl: wp.float64, safety: wp
     for j in range(15):
         if j == 1 or j == 2 or j == 4 or j == 5 or j == 7 or j == 9 or j == 10 or j == 12 or j == 13:
             q += WI9_D[j % 8] * wp.vec2d(f0[j], f1[j])
-    dq = wp.vec2d(wp.abs(g[0] - q[0] * hl), wp.abs(g[1] - q[1] * hl))
-    if tail > wp.float64(0.0):
-        # |G7 - I9| = GAMMA10 |c10|: floored at ``tail`` GAMMA10 (|c9| + |c10|) min(1, r)
-        dq[0] = wp.max(dq[0], tail * GAMMA10_D * second_tail(f0) * hl)
-        dq[1] = wp.max(dq[1], tail * GAMMA10_D * second_tail(f1) * hl)
     out = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     for c in range(2):
-        out[c] = wp.max(safety * dq[c], wp.float64(1.1e-14) * wp.abs(g[c]))
+        out[c] = wp.max(safety * wp.abs(g[c] - q[c] * hl), wp.float64(1.1e-14) * wp.abs(g[c]))
     return out
+
+
+@wp.func
+def second_floor(f0: vec16d, f1: vec16d, hl: wp.float64):
+    """GAMMA10 (|c9| + |c10|) min(1, r) hl per channel (:func:`second_tail`): the floor of the
+    second stage's |G7 - I9| = GAMMA10 |c10| (round 12), formed only where the stage would accept."""
+    return wp.vec2d(GAMMA10_D * second_tail(f0) * hl, GAMMA10_D * second_tail(f1) * hl)
 
 
 @wp.func

@@ -88,7 +88,7 @@ def node_values(f: wp.array2d(dtype=wp.float64), k: wp.int32):
 def _first_kernel(f: wp.array2d(dtype=wp.float64), hl: wp.float64, which: wp.int32, out: wp.array2d(dtype=wp.float64)):
     k = wp.tid()
     f0, f1 = node_values(f, k)
-    g, e = first_stage(f0, f1, hl, which, wp.float64(1.0), wp.float64(0.0))
+    g, e = first_stage(f0, f1, hl, which, wp.float64(1.0))
     out[k, 0] = g[0]
     out[k, 1] = g[1]
     out[k, 2] = e[0]

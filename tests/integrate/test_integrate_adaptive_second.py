@@ -59,7 +59,7 @@ def _second_kernel(f: wp.array2d(dtype=wp.float64), g7: wp.array(dtype=wp.float6
                    safety: wp.float64, out: wp.array2d(dtype=wp.float64)):
     k = wp.tid()
     f0, f1 = node_values(f, k)
-    e = second_stage(f0, f1, wp.vec2d(g7[k], -wp.float64(2.0) * g7[k]), hl, safety, wp.float64(0.0))
+    e = second_stage(f0, f1, wp.vec2d(g7[k], -wp.float64(2.0) * g7[k]), hl, safety)
     out[k, 0] = e[0]
     out[k, 1] = e[1]
 
