@@ -29,7 +29,11 @@ is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the inte
 the Kronrod nodes are added and G7 is accepted with ``second_safety`` |G7 - I9| = 64 |G7 - I9|
 (I9 on 9 of the 11 values, degree 9: far sharper than |G7 - I5| on smooth integrands); otherwise
 the last 4 Kronrod nodes are added and the interval is K15 with the estimate below (the values
-reused, so a rejected stage costs nothing). The outer v integral is adaptive G7-K15 too, started from the closed-form
+reused, so a rejected stage costs nothing). Each stage's difference is one Legendre coefficient of
+its values' interpolant (|G7 - I9| = GAMMA10 |c10|), blind to the odd one just below it: the second
+stage's is floored at ``second_tail`` = 0.1 GAMMA10 (|c9| + |c10|) min(1, r) where it would accept
+(round 12: a grazing Beckmann texel 1.32x under its error; the first stage's the same with
+``inner_first_tail``, off). The outer v integral is adaptive G7-K15 too, started from the closed-form
 theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, the
 critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integrate.outer`), and
 each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
@@ -40,7 +44,9 @@ when ``OUTER_FIRST_SAFETY`` |G7 - I5| = 64 |G7 - I5| plus the carried inner esti
 the interval's share of the budget (an outer node costs a whole inner integral; 8 under-reported,
 and 32 near normal incidence, where the inner integrals carry almost nothing: round 11, which
 took it to 128; 64 since round 12's floor on |G7 - I5|, below: 32 left one texel at 1.25x), except
-at mu = 1, where every outer interval is K15 (each inner integral is one evaluation there):
+at mu = 1, where every outer interval is K15 (each inner integral is one evaluation there); its
+|G7 - I5| = GAMMA6 |c6| floored at ``outer_first_tail`` = 0.1 GAMMA6 (|c5| + |c6|) min(1, r) (round
+12: two texels up to 2.3x under their error):
 ``OUTER_FIRST_SPREAD`` = 4 times its even share, at most the whole budget, since the global loop
 still refines until the pieces' estimates sum to the budget (issue 14, tenth round: -4 .. -10%
 evaluations at 1e-3, -2 .. -3% below 1e-4, the harness honest).

@@ -184,26 +184,34 @@ G7L3_D, G7L4_D, G7L5_D, G7L6_D = (wp.constant(vec15d(*G7_LEG[k].tolist())) for k
 
 
 @wp.func
-def first_tail(f: vec16d):
-    """(|c5| + |c6|) min(1, r) of the 7 Gauss values' interpolant (orthonormal Legendre), r =
-    (|c5| + |c6|) / (|c3| + |c4|) (1 when the lower pair vanishes and the upper does not)."""
-    c3 = wp.float64(0.0)
-    c4 = wp.float64(0.0)
-    c5 = wp.float64(0.0)
-    c6 = wp.float64(0.0)
+def pair_floor(f: vec16d, w_lo0: vec15d, w_lo1: vec15d, w_hi0: vec15d, w_hi1: vec15d):
+    """A * min(1, A / B) with A = |c_hi0| + |c_hi1| and B = |c_lo0| + |c_lo1|, each coefficient
+    c = sum_j w[j] f[j] over the 15 values (weights 0 where a node is not the rule's): the last
+    pair of Legendre coefficients of a stage's interpolant, damped by how much smaller it is than
+    the pair below (A when B vanishes, 0 when A does)."""
+    lo0 = wp.float64(0.0)
+    lo1 = wp.float64(0.0)
+    hi0 = wp.float64(0.0)
+    hi1 = wp.float64(0.0)
     for j in range(15):
-        if j % 2 == 1:
-            c3 += G7L3_D[j] * f[j]
-            c4 += G7L4_D[j] * f[j]
-            c5 += G7L5_D[j] * f[j]
-            c6 += G7L6_D[j] * f[j]
-    a = wp.abs(c5) + wp.abs(c6)
-    b = wp.abs(c3) + wp.abs(c4)
+        lo0 += w_lo0[j] * f[j]
+        lo1 += w_lo1[j] * f[j]
+        hi0 += w_hi0[j] * f[j]
+        hi1 += w_hi1[j] * f[j]
+    a = wp.abs(hi0) + wp.abs(hi1)
+    b = wp.abs(lo0) + wp.abs(lo1)
     if a <= wp.float64(0.0):
         return wp.float64(0.0)
     if b <= wp.float64(0.0):
         return a
     return a * wp.min(wp.float64(1.0), a / b)
+
+
+@wp.func
+def first_tail(f: vec16d):
+    """(|c5| + |c6|) min(1, r) of the 7 Gauss values' interpolant (orthonormal Legendre), r =
+    (|c5| + |c6|) / (|c3| + |c4|) (:func:`pair_floor`)."""
+    return pair_floor(f, G7L3_D, G7L4_D, G7L5_D, G7L6_D)
 
 
 @wp.func
@@ -274,24 +282,8 @@ S11L7_D, S11L8_D, S11L9_D, S11L10_D = (wp.constant(vec15d(*row.tolist())) for ro
 @wp.func
 def second_tail(f: vec16d):
     """(|c9| + |c10|) min(1, r) of the 11 second-stage values' interpolant (orthonormal
-    Legendre), r = (|c9| + |c10|) / (|c7| + |c8|) (1 when the lower pair vanishes)."""
-    c7 = wp.float64(0.0)
-    c8 = wp.float64(0.0)
-    c9 = wp.float64(0.0)
-    c10 = wp.float64(0.0)
-    for j in range(15):
-        if j != 0 and j != 6 and j != 8 and j != 14:
-            c7 += S11L7_D[j] * f[j]
-            c8 += S11L8_D[j] * f[j]
-            c9 += S11L9_D[j] * f[j]
-            c10 += S11L10_D[j] * f[j]
-    a = wp.abs(c9) + wp.abs(c10)
-    b = wp.abs(c7) + wp.abs(c8)
-    if a <= wp.float64(0.0):
-        return wp.float64(0.0)
-    if b <= wp.float64(0.0):
-        return a
-    return a * wp.min(wp.float64(1.0), a / b)
+    Legendre), r = (|c9| + |c10|) / (|c7| + |c8|) (:func:`pair_floor`)."""
+    return pair_floor(f, S11L7_D, S11L8_D, S11L9_D, S11L10_D)
 
 
 @wp.func

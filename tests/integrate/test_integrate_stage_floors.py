@@ -22,7 +22,8 @@ import pytest
 import warp as wp
 
 from bsdf_tab.integrate import integrate_texels
-from bsdf_tab.integrate.quadrature import GAMMA6, GAMMA10, GK_WG, GK_X, first_tail, second_tail, vec16d
+from bsdf_tab.integrate.quadrature import GAMMA6, GAMMA10, GK_WG, GK_X, first_tail, second_tail
+from tests.integrate.test_integrate_adaptive_first import node_values
 from tests.integrate.test_integrate_adaptive_second import I9_NODES, _moment_weights
 from tests.reference import microfacet_ref as ref
 
@@ -74,11 +75,9 @@ def test_stage_differences_are_single_coefficients():
 @wp.kernel
 def _tails_kernel(f: wp.array2d(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
     k = wp.tid()
-    v = vec16d()
-    for j in range(15):
-        v[j] = f[k, j]
-    out[k, 0] = first_tail(v)
-    out[k, 1] = second_tail(v)
+    f0, f1 = node_values(f, k)
+    out[k, 0] = first_tail(f0)
+    out[k, 1] = second_tail(f0)
 
 
 def _pair_floor(c, odd, even, lo_odd, lo_even):
