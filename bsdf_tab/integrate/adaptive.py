@@ -46,7 +46,9 @@ and 32 near normal incidence, where the inner integrals carry almost nothing: ro
 took it to 128; 64 since round 12's floor on |G7 - I5|, below: 32 left one texel at 1.25x), except
 at mu = 1, where every outer interval is K15 (each inner integral is one evaluation there); its
 |G7 - I5| = GAMMA6 |c6| floored at ``outer_first_tail`` = 0.1 GAMMA6 (|c5| + |c6|) min(1, r) (round
-12: two texels up to 2.3x under their error):
+12: two texels up to 2.3x under their error), and skipped on intervals much longer than their
+distance to v = 0, the branch point of tan(theta_m) ~ sqrt(v) (``OUTER_NEAR0`` = 16; round 12: a
+grazing texel's graded piece [v_a, 256 v_a], 3.27x under its error):
 ``OUTER_FIRST_SPREAD`` = 4 times its even share, at most the whole budget, since the global loop
 still refines until the pieces' estimates sum to the budget (issue 14, tenth round: -4 .. -10%
 evaluations at 1e-3, -2 .. -3% below 1e-4, the harness honest).
@@ -157,6 +159,7 @@ SECOND_SAFETY = 64.0  # the factor on the inner second stage's |G7 - I9| (docs/m
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
 OUTER_TAIL = 0.1  # the floors on the outer |K15 - G7|, the outer |G7 - I5| and the inner |G7 - I9| from their Legendre pairs (docs/methods.md, issue 14, round 12)
+OUTER_NEAR0 = 16.0  # no outer first stage on an interval longer than this times its distance to v = 0 (round 12)
 NORMAL_MAP = 0.05  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
@@ -202,17 +205,29 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     d = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     accepted = int(0)
+    first = x.first
+    if x.near0 > wp.float64(0.0) and first > 0:
+        # tan(theta_m) ~ sqrt(v) near v = 0: its branch point sits just before an interval that
+        # is long against its distance to it (grazing texels' graded pieces), where 7 values do
+        # not see it (round 12)
+        # (a piece that starts at v = 0 has the point at its mapped end, where the map's t^2 makes
+        # sqrt(v) linear: not there)
+        if x.ends[wp.min(int(wp.floor(wa)), 46)] > wp.float64(0.0):
+            va0, _d0 = v_of_w(x, wa)
+            vb0, _d1 = v_of_w(x, wb)
+            if vb0 - va0 > x.near0 * va0:
+                first = 0
     # one call site of _v_node (it holds the whole inner integral: a second one doubled the
     # CUDA compile): the 7 Gauss nodes (odd j) first, then the first stage, then the 8 others
     for k in range(15):
         j = 2 * k + 1
         if k >= 7:
             j = 2 * (k - 7)
-        if k == 7 and x.first > 0:
-            g, d = first_stage(f0, f1, hl, x.first, x.safety)
+        if k == 7 and first > 0:
+            g, d = first_stage(f0, f1, hl, first, x.safety)
             d = d + eg * hl
             if wp.max(d[0], d[1]) <= x.thr * (wb - wa):
-                if x.first_tail > wp.float64(0.0) and x.first == 5:
+                if x.first_tail > wp.float64(0.0) and first == 5:
                     # |G7 - I5| is one coefficient: floored by the 7 values' last Legendre pair (round 12)
                     fl = first_floor(f0, f1, hl) * (x.safety * x.first_tail) + eg * hl
                     d = wp.vec2d(wp.max(d[0], fl[0]), wp.max(d[1], fl[1]))
@@ -301,6 +316,7 @@ def texel_kernel(
     inner_first_tail: wp.float64,
     outer_first_tail: wp.float64,
     second_tail: wp.float64,
+    outer_near0: wp.float64,
     value: wp.array2d(dtype=wp.float64),
     error: wp.array2d(dtype=wp.float64),
     cost: wp.array(dtype=wp.int32),
@@ -351,6 +367,7 @@ def texel_kernel(
     ox.safety = outer_first_safety
     ox.tail = outer_tail
     ox.first_tail = outer_first_tail
+    ox.near0 = outer_near0
     if ne > 0:
         # the first stage's budget per unit w: outer_first_spread times the texel's spread evenly
         # over the initial pieces (at most all of it); the global loop still bisects until the
@@ -429,6 +446,7 @@ def integrate_texels(
     inner_first_tail: float = 0.0,
     outer_first_tail: float = OUTER_TAIL,
     second_tail: float = OUTER_TAIL,
+    outer_near0: float = OUTER_NEAR0,
     return_cost: bool | str = False,
 ):
     """Integrate independent texels (mu[k], alpha[k], eta[k]) with the adaptive method.
@@ -484,7 +502,10 @@ def integrate_texels(
         |c6| of the 7 Gauss values floored at that factor times GAMMA6 (|c5| + |c6|) min(1, r), and
         the inner second stage's |G7 - I9| = GAMMA10 |c10| of its 11 values at GAMMA10 (|c9| + |c10|)
         min(1, r); ``inner_first_tail`` (0: off) the same for the inner first stage (measured, not
-        needed by any texel found: +0.8% evaluations on a random scan).
+        needed by any texel found: +0.8% evaluations on a random scan). ``outer_near0`` (16; 0:
+        off, before round 12): no outer first stage on an interval of a piece that starts at
+        v > 0 and is longer than this times its distance to v = 0, where tan(theta_m) ~ sqrt(v)
+        has its branch point (grazing texels' graded pieces: a texel 3.27x under its error).
 
     Returns
     -------
@@ -516,7 +537,7 @@ def integrate_texels(
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
     for name, value in (("outer_tail", outer_tail), ("normal_map", normal_map), ("inner_first_tail", inner_first_tail),
-                        ("outer_first_tail", outer_first_tail), ("second_tail", second_tail)):
+                        ("outer_first_tail", outer_first_tail), ("second_tail", second_tail), ("outer_near0", outer_near0)):
         if isinstance(value, bool) or not (math.isfinite(float(value)) and float(value) >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0 (0: off), got {value!r}")
     if not isinstance(shared_error, (bool, np.bool_)):
@@ -569,7 +590,7 @@ def integrate_texels(
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
         int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
         int(inner_map),
-        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), float(outer_tail), float(normal_map), float(inner_first_tail), float(outer_first_tail), float(second_tail), value, error, cost, detail,
+        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), float(outer_tail), float(normal_map), float(inner_first_tail), float(outer_first_tail), float(second_tail), float(outer_near0), value, error, cost, detail,
     ], dev)
 
     # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the

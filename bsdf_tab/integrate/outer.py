@@ -52,6 +52,7 @@ class OuterX:
     safety: wp.float64  # its factor on |G7 - I5|
     tail: wp.float64  # the factor on the Legendre-tail floor of |K15 - G7| (0: off)
     first_tail: wp.float64  # the first stage's factor on its tail floor of |G7 - I5| (0: off)
+    near0: wp.float64  # no first stage where the interval is longer than this times its distance to v = 0 (0: off)
     ends: vec48d
 
 
