@@ -30,7 +30,8 @@ GGX = DISTRIBUTIONS["ggx"]
 # the outer start before round 11's grading and ramp cuts beside the floor (below 1e-3)
 # round 10's start: no grading, no ramp cuts beside the floor, none of round 12's floors (which
 # catch these texels on their own since)
-ROUND10_START = {"outer_grade": 0.0, "ramp_cut": 0.0, "outer_tail": 0.0, "outer_first_tail": 0.0, "second_tail": 0.0}
+ROUND10_START = {"outer_grade": 0.0, "ramp_cut": 0.0, "outer_tail": 0.0, "outer_first_tail": 0.0, "second_tail": 0.0,
+                 "outer_near0": 0.0}
 CORRELATED = SHADOWINGS["correlated"]
 
 

@@ -190,7 +190,7 @@ def test_ramp_cut_beside_the_floor_below_1e3():
     assert abs(v[0, 0] - r.value) - r.err <= 0.1 * e[0, 0]
     # (round 12's floors off too: the outer first stage's catches it on its own since)
     v, e = integrate_texels("reflect", [mu], [alpha], ramp_cut=0.0, outer_tail=0.0, outer_first_tail=0.0,
-                            second_tail=0.0, **kw)
+                            second_tail=0.0, outer_near0=0.0, **kw)
     assert abs(v[0, 0] - r.value) - r.err > e[0, 0], "the failure the cuts are there for"
 
 
