@@ -21,7 +21,7 @@ split at those points, each piece mapped at the ends that need it (``inner_map``
 Fresnel at the critical angle linear and the horizons' kinks smooth; no map at phi = 0 or pi,
 where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
 the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped; but Beckmann
-texels map phi = 0 where the point o_r = n, at phi = i y0, lies within ``NORMAL_MAP`` = 0.05 of
+texels map phi = 0 where the point o_r = n, at phi = i y0, lies within ``NORMAL_MAP`` = 0.03 of
 the piece: Beckmann's Lambda is not analytic at theta_o = 0, round 12), and integrated by
 adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
@@ -160,7 +160,7 @@ OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne
 OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
 OUTER_TAIL = 0.1  # the floors on the outer |K15 - G7|, the outer |G7 - I5| and the inner |G7 - I9| from their Legendre pairs (docs/methods.md, issue 14, round 12)
 OUTER_NEAR0 = 16.0  # no outer first stage on an interval longer than this times its distance to v = 0 (round 12)
-NORMAL_MAP = 0.05  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
+NORMAL_MAP = 0.03  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
@@ -495,7 +495,7 @@ def integrate_texels(
         ``outer_grade`` (None: 16; 0: off, the method before round 11): the initial outer pieces
         cut where tan(theta_m) grows by more than this factor. ``outer_tail`` (0.1; 0: off, before
         round 12): the outer |K15 - G7| floored at that factor times GAMMA14 (|c13| + |c14|)
-        min(1, r), the interpolant's tail pair. ``normal_map`` (0.05; 0: off, before round 12):
+        min(1, r), the interpolant's tail pair. ``normal_map`` (0.03; 0: off, before round 12):
         Beckmann texels map the inner piece's end phi = 0 where the point o_r = n, at phi = i y0,
         is within that share of the piece (y0 < normal_map b). ``outer_first_tail`` (0.1; 0: off,
         before round 12) and ``second_tail`` (0.1; 0: off): the outer first stage's |G7 - I5| = GAMMA6

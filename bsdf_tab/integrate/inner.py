@@ -233,7 +233,7 @@ def inner_integral(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp.float6
                 # near phi = 0 when theta_m ~ theta_i / 2. Closer than normal_map times the piece,
                 # G7 and K15 agreed there to 1e-8 while both missed 1.7e-7 (issue 14, round 12):
                 # phi = 0 is mapped, which moves the point away from the nodes' reach
-                # cosh(y), y = normal_map b (<= 0.05 pi by default), by its Taylor polynomial (a threshold:
+                # cosh(y), y = normal_map b (<= 0.03 pi by default), by its Taylor polynomial (a threshold:
                 # the y^6 / 720 left out is below 2e-8 there; no exp per inner integral)
                 y2 = p.normal_map * b * p.normal_map * b
                 if (one + p.mu) / (wp.float64(2.0) * cm) - p.mu * cm < (one + y2 * wp.float64(0.5) * (one + y2 / wp.float64(12.0))) * ss:

@@ -6,7 +6,9 @@ theta_m the point sits at phi = i y0 (cosh y0 = ((1 + mu) / (2 cos theta_m) - mu
 (sin theta_i sin theta_m)), just off the inner piece's unmapped end phi = 0: a rough Beckmann
 texel (mu 0.108, alpha 1.56, Schlick 0.04) had a band of inner integrals where G7 and K15 agreed
 to 1e-8 and both missed 1.7e-7, and reported 1.36x less than its true error at tolerance 1e-7.
-The inner piece from phi = 0 is mapped at that end where y0 < ``normal_map`` (0.05) times the piece.
+The inner piece from phi = 0 is mapped at that end where y0 < ``normal_map`` (0.03) times the piece
+(0.05 at first: it left 15 of 1500 texels of a Beckmann correlated, dielectric Fresnel 1.5 region at
+up to 1.22x at 1e-7, where the map itself misled an estimate; 0.03 none).
 Checked here against the independent reference (tests/reference) and by construction:
 
 * a grid of such texels at 1e-7: honest with the map, dishonest without it;
@@ -32,11 +34,11 @@ def test_rough_beckmann_band_is_honest_only_with_the_map():
     rv = np.array([r.value for r in refs])
     re = np.array([r.err for r in refs])
     worst = {}
-    for nm in (0.05, 0.0):
+    for nm in (0.03, 0.0):
         v, e = integrate_texels("reflect", mu, alpha, None, tol=1e-7, normal_map=nm, **KW)
         worst[nm] = float(np.max((np.abs(v[:, 0] - rv) - re) / e[:, 0]))
-    # measured: 0.44 .. 0.46 with the map (errors 2.9e-9), up to 1.36 without (6.8e-9)
-    assert worst[0.05] <= 1.0, worst
+    # measured: 0.71 / 0.66 / 0.43 with the map (errors 4.0e-9 .. 5.3e-9), 1.29 / 1.16 / 0.84 without (6.8e-9)
+    assert worst[0.03] <= 1.0, worst
     assert worst[0.0] > 1.0, worst
 
 
