@@ -29,11 +29,9 @@ is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the inte
 the Kronrod nodes are added and G7 is accepted with ``second_safety`` |G7 - I9| = 64 |G7 - I9|
 (I9 on 9 of the 11 values, degree 9: far sharper than |G7 - I5| on smooth integrands); otherwise
 the last 4 Kronrod nodes are added and the interval is K15 with the estimate below (the values
-reused, so a rejected stage costs nothing). Each stage's difference is one Legendre coefficient of
-its values' interpolant (|G7 - I9| = GAMMA10 |c10|), blind to the odd one just below it: the second
-stage's is floored at ``second_tail`` = 0.1 GAMMA10 (|c9| + |c10|) min(1, r) where it would accept
-(round 12: a grazing Beckmann texel 1.32x under its error; the first stage's the same with
-``inner_first_tail``, off). The outer v integral is adaptive G7-K15 too, started from the closed-form
+reused, so a rejected stage costs nothing). |G7 - I9| = GAMMA10 |c10| of the 11 values' interpolant,
+blind to c9: floored at ``second_tail`` = 0.1 GAMMA10 (|c9| + |c10|) min(1, r) where it would accept
+(round 12: a grazing Beckmann texel 1.32x; the first stage's with ``inner_first_tail``, off). The outer v integral is adaptive G7-K15 too, started from the closed-form
 theta_m where the phi pieces change (theta_m = (pi/2 -+ theta_i)/2, pi/2 - theta_i, the
 critical-angle crossings, and where two thresholds cross: :mod:`bsdf_tab.integrate.outer`), and
 each outer rule works through a smoothstep map of its initial piece (issue 14, sixth round: the
@@ -137,7 +135,7 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    GAMMA14_D, WG7_D, WGK_D, check_rule_keywords, decay_ratio, first_floor, first_stage, gk_abscissa, gk_error, gk_error_decay,
+    GAMMA14_D, WG7_D, WGK_D, check_factors, check_rule_keywords, decay_ratio, first_floor, first_stage, gk_abscissa, gk_error, gk_error_decay,
     gk_resasc, legendre_tail, make_global_bisection, tail_ratio, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
@@ -523,10 +521,7 @@ def integrate_texels(
     check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power, second_safety)
     if isinstance(outer_first, bool) or outer_first not in (0, 3, 5):
         raise ValueError(f"outer_first must be 0 (off), 3 or 5 (the first stage's lower rule), got {outer_first!r}")
-    if not (math.isfinite(float(outer_first_safety)) and float(outer_first_safety) > 0.0):
-        raise ValueError(f"outer_first_safety must be a finite number > 0, got {outer_first_safety!r}")
-    if not (math.isfinite(float(outer_first_spread)) and float(outer_first_spread) > 0.0):
-        raise ValueError(f"outer_first_spread must be a finite number > 0, got {outer_first_spread!r}")
+    check_factors(True, outer_first_safety=outer_first_safety, outer_first_spread=outer_first_spread)
     if outer_grade is None:
         # the grading at every tolerance (issue 14, round 11): without it grazing texels missed
         # ~2.5e-9 .. 5e-7 at 1e-6 .. 1e-7 (up to 6.5x their estimate), a grazing Schlick texel
@@ -536,10 +531,8 @@ def integrate_texels(
         outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
-    for name, value in (("outer_tail", outer_tail), ("normal_map", normal_map), ("inner_first_tail", inner_first_tail),
-                        ("outer_first_tail", outer_first_tail), ("second_tail", second_tail), ("outer_near0", outer_near0)):
-        if isinstance(value, bool) or not (math.isfinite(float(value)) and float(value) >= 0.0):
-            raise ValueError(f"{name} must be a finite number >= 0 (0: off), got {value!r}")
+    check_factors(False, outer_tail=outer_tail, normal_map=normal_map, inner_first_tail=inner_first_tail,
+                  outer_first_tail=outer_first_tail, second_tail=second_tail, outer_near0=outer_near0)
     if not isinstance(shared_error, (bool, np.bool_)):
         raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):

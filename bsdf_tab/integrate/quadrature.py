@@ -329,6 +329,14 @@ def end_map(t: wp.float64, ends: wp.int32):
     return t, one
 
 
+def check_factors(positive: bool, **factors) -> None:
+    """Each keyword a finite number, > 0 (``positive``) or >= 0 (0: off); not a bool."""
+    for name, value in factors.items():
+        ok = not isinstance(value, bool) and math.isfinite(float(value))
+        if not (ok and (float(value) > 0.0 if positive else float(value) >= 0.0)):
+            raise ValueError(f"{name} must be a finite number {'> 0' if positive else '>= 0 (0: off)'}, got {value!r}")
+
+
 def check_rule_keywords(inner_first, first_share, first_safety, err_safety, err_power, second_safety=0.0) -> None:
     """The inner error estimates' keywords, validated: the two-stage rule's ``inner_first`` 0
     (off), 5 (I5) or 3 (I3), ``first_share`` in [0, 1], ``first_safety`` finite and > 0 (below 1
