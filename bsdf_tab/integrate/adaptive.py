@@ -87,7 +87,7 @@ tail can reach 1 there (measured 0.9997). ``bound_share`` < 0 switches both off,
 
 Error estimate: the outer v level uses QUADPACK's rescaling of |K15 - G7| (err_model 1,
 default; 0: |K15 - G7| itself; 2: as the inner default), |K15 - G7| first floored at
-``OUTER_TAIL`` GAMMA14 (|c13| + |c14|) min(1, r) = 0.1 of what the interpolant's last Legendre pair
+``TAIL_FLOOR`` GAMMA14 (|c13| + |c14|) min(1, r) = 0.1 of what the interpolant's last Legendre pair
 predicts (|K15 - G7| is exactly GAMMA14 |c14|, one coefficient that can be small by accident while
 c13 is not: a Beckmann texel 2.46x under its error at 1e-6, issue 14 round 12), summed over the accepted intervals,
 plus the inner estimates carried through the outer weights; floored at 1e-9 (tolerances >= 1e-7;
@@ -135,8 +135,8 @@ from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module
 )
 from .outer import OuterX, initial_ends, v_of_w, vec48d
 from .quadrature import (
-    GAMMA14_D, WG7_D, WGK_D, check_factors, check_rule_keywords, decay_ratio, first_floor, first_stage, gk_abscissa, gk_error, gk_error_decay,
-    gk_resasc, legendre_tail, make_global_bisection, tail_ratio, vec16d,
+    WG7_D, WGK_D, check_factors, check_rule_keywords, decay_ratio, first_floor, first_stage, gk_abscissa, gk_error,
+    gk_error_decay, gk_resasc, k15_floor, make_global_bisection, vec16d,
 )
 from .runtime import check_workers, chunk_launcher, resolve_device, run_chunks, texel_arrays
 
@@ -156,7 +156,7 @@ FIRST_SAFETY = 8.0  # the factor on the inner first stage's |G7 - I5| (docs/meth
 SECOND_SAFETY = 64.0  # the factor on the inner second stage's |G7 - I9| (docs/methods.md, issue 14, round 11)
 OUTER_FIRST_SPREAD = 4.0  # an initial piece's outer first stage may take 4 / ne of the budget (docs/methods.md, issue 14, round 10)
 OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than this (docs/methods.md, issue 14, round 11)
-OUTER_TAIL = 0.1  # the floors on the outer |K15 - G7|, the outer |G7 - I5| and the inner |G7 - I9| from their Legendre pairs (docs/methods.md, issue 14, round 12)
+TAIL_FLOOR = 0.1  # the floors on the outer |K15 - G7|, the outer |G7 - I5| and the inner |G7 - I9| from their Legendre pairs (docs/methods.md, issue 14, round 12)
 OUTER_NEAR0 = 16.0  # no outer first stage on an interval longer than this times its distance to v = 0 (round 12)
 NORMAL_MAP = 0.03  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
@@ -243,12 +243,8 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     if accepted != 0:
         return g, d, rules
     if x.tail > wp.float64(0.0):
-        # |K15 - G7| is GAMMA14 |c14| (the interpolant's top coefficient): where c14 alone is small
-        # by accident and c13 is not, the difference is floored at what the tail pair predicts
-        t0 = legendre_tail(f0)
-        t1 = legendre_tail(f1)
-        floor = x.tail * GAMMA14_D * wp.vec2d(t0[0] * wp.min(wp.float64(1.0), tail_ratio(t0)),
-                                              t1[0] * wp.min(wp.float64(1.0), tail_ratio(t1)))
+        # |K15 - G7| is GAMMA14 |c14|, one coefficient: floored at what the tail pair predicts
+        floor = k15_floor(f0, f1) * x.tail
         for c in range(2):
             if wp.abs(rk[c] - rg[c]) < floor[c]:
                 rg[c] = rk[c] - floor[c]
@@ -439,11 +435,11 @@ def integrate_texels(
     second_safety: float = SECOND_SAFETY,
     shared_error: bool = True,
     outer_grade: float | None = None,
-    outer_tail: float = OUTER_TAIL,
+    outer_tail: float = TAIL_FLOOR,
     normal_map: float = NORMAL_MAP,
     inner_first_tail: float = 0.0,
-    outer_first_tail: float = OUTER_TAIL,
-    second_tail: float = OUTER_TAIL,
+    outer_first_tail: float = TAIL_FLOOR,
+    second_tail: float = TAIL_FLOOR,
     outer_near0: float = OUTER_NEAR0,
     return_cost: bool | str = False,
 ):

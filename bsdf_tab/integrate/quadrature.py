@@ -138,6 +138,17 @@ def tail_ratio(t: wp.vec3d):
 
 
 @wp.func
+def k15_floor(f0: vec16d, f1: vec16d):
+    """GAMMA14 (|c13| + |c14|) min(1, r) per channel (:func:`legendre_tail`, r its
+    :func:`tail_ratio`): what the 15 values' last Legendre pair predicts for |K15 - G7| =
+    GAMMA14 |c14| (before the half length), the floor of the outer rule's difference (round 12)."""
+    t0 = legendre_tail(f0)
+    t1 = legendre_tail(f1)
+    return GAMMA14_D * wp.vec2d(t0[0] * wp.min(wp.float64(1.0), tail_ratio(t0)),
+                                t1[0] * wp.min(wp.float64(1.0), tail_ratio(t1)))
+
+
+@wp.func
 def decay_ratio(f: vec16d):
     """How fast the Legendre coefficients of the 15-node interpolant of ``f`` (values at the
     nodes in GK_X order) fall over their last six degrees: r = max(A / B, B / C) with

@@ -6,7 +6,7 @@ small by accident while c13 is not, G7 and K15 agree and both miss: a Beckmann t
 dielectric Fresnel (eta 0.7) had an outer piece with |K15 - G7| = 1.5e-10, K15 3.6e-7 off
 (|c13| = 8e-5, |c14| = 7e-10), and reported 2.3x less than its true error at tolerance 1e-6.
 The outer rule floors |K15 - G7| at ``outer_tail`` GAMMA14 (|c13| + |c14|) min(1, r) (r the
-decay ratio of the tail pairs; ``OUTER_TAIL`` = 0.1). Checked here, against computations written
+decay ratio of the tail pairs; ``TAIL_FLOOR`` = 0.1). Checked here, against computations written
 apart from the code under test:
 
 * GAMMA14 and the identity |K15 - G7| = GAMMA14 |c14| with NumPy's Legendre basis and Gauss rules;
