@@ -30,6 +30,7 @@ BENCHMARKS = {
     "core": ("core.py", "the core tables: times, integrand evaluations per texel and where they go"),
     "versions": ("versions.py", "two checkouts interleaved: the core tables and the example scene plan"),
     "honesty": ("accuracy_honesty.py", "the adaptive method's honesty and evaluations on 1634 reference texels"),
+    "honesty_scans": ("honesty_scans.py", "stress scans of the error channel: near normal and grazing incidence, general, random seeds"),
     "inner_honesty": ("inner_honesty.py", "single inner integrals: where the two-stage rule's first stage under-reports"),
     "anisotropy": ("anisotropy.py", "the isotropic collapse of anisotropic GGX, and the furnace after it"),
     "anisotropy_tables": ("anisotropy_tables.py", "the smallest albedo_aniso table under a lookup error"),
