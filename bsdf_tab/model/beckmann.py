@@ -16,6 +16,7 @@ import warp as wp
 
 from .frame import expm1_, log1p_
 from .ierfc_table import IERFC_A_MAX, IERFC_PER_UNIT, IERFC_PIECES, IERFC_TAIL
+from .lambda_b_table import LAMBDA_B_E_MIN, LAMBDA_B_MAX, LAMBDA_B_PER_OCTAVE, LAMBDA_B_PIECES
 
 NAME = "beckmann"
 DESCRIPTION = "Beckmann, alpha = alpha_b (Walter et al. 2007 eq. 25)"
@@ -279,6 +280,69 @@ def beckmann_lambda_cos_abs(cos_theta_v: wp.float64, alpha: wp.float64):
         # normal incidence or mirror: no shadowing
         return zero
     return alpha * s * wp.float64(0.5) * beckmann_ierfc_abs(z / (alpha * s))
+
+
+# Lambda(b), b = a^2, as native code (issue 14, thirteenth round): the piece from b's exponent and
+# first four mantissa bits (no conversion of b to an integer), its local variable by an exact
+# scaling; 0 from b = 36 on and for nan (the caller handles b < 2^LAMBDA_B_E_MIN)
+_LAMBDA_B_BITS = LAMBDA_B_PER_OCTAVE.bit_length() - 1  # pieces per octave: 2^_LAMBDA_B_BITS
+assert LAMBDA_B_PER_OCTAVE == 1 << _LAMBDA_B_BITS and len(set(map(len, LAMBDA_B_PIECES))) == 1
+LAMBDA_B_MIN = wp.constant(wp.float64(2.0**LAMBDA_B_E_MIN))  # a = 1/16: below, the root and ierfc
+_LAMBDA_B_SNIPPET = f"""
+if (!(b >= {_c_double(2.0 ** LAMBDA_B_E_MIN)} && b < {_c_double(LAMBDA_B_MAX)})) {{
+    return 0.0;
+}}
+static const double P[{len(LAMBDA_B_PIECES)}][{len(LAMBDA_B_PIECES[0])}] = {{
+{",".join("{" + ",".join(_c_double(v) for v in row) + "}" for row in LAMBDA_B_PIECES)}
+}};
+union {{ double d; long long i; }} u, s;
+u.d = b;
+// b > 0: bits 52.. the biased exponent E, the next {_LAMBDA_B_BITS} down the piece j within the octave
+int k = (int)(u.i >> {52 - _LAMBDA_B_BITS}) - {(1023 + LAMBDA_B_E_MIN) * LAMBDA_B_PER_OCTAVE};
+int j = k & {LAMBDA_B_PER_OCTAVE - 1};
+// 2^(m - e), m = {_LAMBDA_B_BITS + 1}, e = E - 1023: x = 2^(m - e) b - (2^m + 1 + 2 j) in [-1, 1), exact (Sterbenz)
+s.i = (long long)({2047 + _LAMBDA_B_BITS} - (int)(u.i >> 52)) << 52;
+double x = b * s.d - (double)({2 ** (_LAMBDA_B_BITS + 1) + 1} + 2 * j);
+const double* c = P[k];
+double x2 = x * x;
+double x4 = x2 * x2;
+return {_poly_c(len(LAMBDA_B_PIECES[0]), "x", "c")};
+"""
+
+
+@wp.func_native(_LAMBDA_B_SNIPPET)
+def _lambda_b_native(b: wp.float64) -> wp.float64:
+    ...
+
+
+@wp.func
+def beckmann_lambda_b_table(b: wp.float64):
+    """Lambda(b) from the table alone, for b >= ``LAMBDA_B_MIN`` (0 below, from b = 36 on and for nan):
+    the integrand's G takes b below LAMBDA_B_MIN to the root form itself (its accuracy at any zo)."""
+    return _lambda_b_native(b)
+
+
+@wp.func
+def beckmann_lambda_a2(b: wp.float64):
+    """Smith Lambda of a direction with a^2 = b = cot^2(theta) / alpha^2 (float64): ierfc(a) / (2 a)
+    within ~6e-17 (1 + Lambda) plus a few ulp, 0 from b = 36 on (Lambda < 1.5e-19 there), infinite at
+    b = 0 (the horizon), nan for b < 0 or nan.
+
+    From b, not a: a Smith G from cos(theta) needs no root then (b = z^2 / (alpha^2 (1 - z^2))), the
+    root and one division of :func:`beckmann_lambda_cos_abs` less per evaluation (issue 14,
+    thirteenth round). Pieces per octave of b (:mod:`bsdf_tab.model.lambda_b_table`) from b = 2^-8;
+    below (a < 1/16, within a few degrees of the horizon) ierfc(a) / (2 a) by
+    :func:`beckmann_ierfc_abs` (1.2e-16 absolute: 2.1e-16 of Lambda ~ 1 / (2 sqrt(pi) a) there)."""
+    zero = wp.float64(0.0)
+    if b >= LAMBDA_B_MIN:
+        return _lambda_b_native(b)
+    if b > zero:
+        a = wp.sqrt(b)
+        return beckmann_ierfc_abs(a) / (wp.float64(2.0) * a)
+    if b == zero:
+        # the horizon: Lambda is infinite
+        return wp.float64(wp.inf)
+    return wp.float64(wp.nan)
 
 
 @wp.func

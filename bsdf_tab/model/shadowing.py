@@ -10,7 +10,7 @@ from typing import Any
 
 import warp as wp
 
-from .beckmann import beckmann_lambda_cos_abs
+from .beckmann import LAMBDA_B_MIN, beckmann_lambda_b_table, beckmann_lambda_cos_abs
 from .distribution import BECKMANN, GGX, lambda_cos
 from .ggx import ggx_lambda_root
 
@@ -48,9 +48,11 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
     integrand that knows Lambda_i once per texel. For GGX it is formed from the root
     r = sqrt(zo^2 + alpha^2 (1 - zo^2)) = zo (1 + 2 Lambda_o) with one division (issue 14):
     correlated G / zi = 2 zo / (zo (zi + 2 li) + zi r), separable 2 zo / ((zi + li)(zo + r)),
-    sums of non-negative terms (no cancellation). Beckmann forms lo only where a = zo / (alpha
-    sin_o) < 6 (beyond, Lambda_o < 2e-19 changes no bit of G), with :func:`beckmann_lambda_cos_abs`
-    (its error: a few ulp of zo + lo); other distributions use their lambda_cos.
+    sums of non-negative terms (no cancellation). Beckmann takes Lambda_o from a^2 =
+    zo^2 / (alpha^2 (1 - zo^2)) with no root (:func:`beckmann_lambda_a2`, 0 where a >= 6: Lambda_o <
+    1.5e-19 there; its error ~6e-17 (1 + Lambda_o)), and G / zi = 1 / (zi + li + zi Lambda_o) or
+    1 / ((zi + li)(1 + Lambda_o)): one division (issue 14, thirteenth round); other distributions
+    use their lambda_cos.
     """
     zero = zi * type(zi)(0.0)
     den = zero
@@ -61,19 +63,29 @@ def smith_G_over_cos_i_to(zi: Any, li: Any, zo: Any, alpha: Any, dist: wp.int32,
         else:
             den = (zi + li) * (zo + r)
     elif dist == BECKMANN:
-        # lo = zo Lambda_o; where a = zo / (alpha sin_o) >= 6 (zo^2 >= 36 alpha^2 (1 - zo^2), tested
-        # before the root and the division) Lambda_o = ierfc(a) / (2 a) < 2e-19: lo = 0 changes
-        # no bit of den, whose other terms are zi zo (1 + Lambda_i) or zo (zi + li)
-        lo = zero
-        z2 = zo * zo
-        if z2 < type(zi)(36.0) * alpha * alpha * (type(zi)(1.0) - z2):
-            lo = beckmann_lambda_cos_abs(zo, alpha)
-        if shadowing == CORRELATED:
-            den = zo * (zi + li) + zi * lo
+        # Lambda_o from b = a^2 = zo^2 / (alpha^2 (1 - zo^2)) with no root (beckmann_lambda_b_table;
+        # 0 where a >= 6, Lambda_o < 1.5e-19 there, and b = inf at zo = 1): zo cancels from G / zi,
+        # 1 / (zi + li + zi Lambda_o) or 1 / ((zi + li)(1 + Lambda_o)), one division (round 13)
+        one = type(zi)(1.0)
+        b = zo * zo / (alpha * alpha * ((one - zo) * (one + zo)))
+        if b >= LAMBDA_B_MIN:
+            lam = beckmann_lambda_b_table(b)
+            if shadowing == CORRELATED:
+                den = zi + li + zi * lam
+            else:
+                den = (zi + li) * (one + lam)
+            if den > zero:
+                return one / den
         else:
-            den = (zi + li) * (zo + lo)
-        if den > zero:
-            return zo / den
+            # a < 1/16, near the horizon (and nan): lo = zo Lambda_o by the root form, which stays
+            # exact as zo -> 0 (G / zi ~ zo there)
+            lo = beckmann_lambda_cos_abs(zo, alpha)
+            if shadowing == CORRELATED:
+                den = zo * (zi + li) + zi * lo
+            else:
+                den = (zi + li) * (zo + lo)
+            if den > zero:
+                return zo / den
     if den <= zero:
         # another distribution, or GGX with alpha = 0 at grazing (the mirror value and its guard)
         return smith_G_over_cos_i_from_lambda(zi, li, zo, lambda_cos(zo, alpha, dist), shadowing)
