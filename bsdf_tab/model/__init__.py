@@ -31,6 +31,7 @@ from .ggx import (
 from .beckmann import (
     beckmann_D,
     beckmann_lambda,
+    beckmann_lambda_a2,
     beckmann_lambda_cos,
     beckmann_sample_vndf,
     beckmann_dcos_sample_tan,
