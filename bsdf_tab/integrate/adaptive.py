@@ -129,7 +129,7 @@ import numpy as np
 import warp as wp
 
 from ..model.distribution import dcos_tan_of_v
-from .inner import inner_integral
+from .inner import inner_integral_scaled
 from .integrand import (  # noqa: F401  (MODE_*, MODES, TexelParams: this module's former names)
     MODE_DFG, MODE_DIELECTRIC, MODE_REFLECT, MODES, PI64, TexelParams, begin_texel, mass_bound, mode_id,
 )
@@ -159,14 +159,16 @@ OUTER_GRADE = 16.0  # outer pieces cut where tan(theta_m) grows by more than thi
 TAIL_FLOOR = 0.1  # the floors on the outer |K15 - G7|, the outer |G7 - I5| and the inner |G7 - I9| from their Legendre pairs (docs/methods.md, issue 14, round 12)
 OUTER_NEAR0 = 16.0  # no outer first stage on an interval longer than this times its distance to v = 0 (round 12)
 NORMAL_MAP = 0.03  # Beckmann: phi = 0 mapped where o_r = n lies within this share of the piece (round 12)
+NORMAL_SPLIT = 0.3  # Beckmann: the first inner piece in halves where o_r = n lies within this share (round 13)
 RAMP_CUT = 2.0  # o_r.n = RAMP_CUT alpha: the G1 ramp cut at loose tolerances (docs/methods.md, issue 14, round 9)
 
 
 @wp.func
-def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.int32):
+def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.int32, scale: wp.float64):
     """One outer node (j < 8 at +XGK[j], else -XGK[j - 8] of [ctr - hl, ctr + hl] in w): the inner
     integral times the Jacobian 2 (1 - v) dv/dw, its estimate times the same and ``x.carry``,
-    and the inner rule counts (applications, of which bisections)."""
+    the inner rule counts (applications, of which bisections), and the inner integral's size (the
+    larger channel) for the next node's ``scale`` (:func:`inner_integral_scaled`)."""
     one = wp.float64(1.0)
     v, dvdw = v_of_w(x, gk_abscissa(ctr, hl, j))
     tm = dcos_tan_of_v(v, p.alpha, p.dist)
@@ -174,9 +176,10 @@ def _v_node(p: TexelParams, x: OuterX, ctr: wp.float64, hl: wp.float64, j: wp.in
     sm = tm * cm
     jac = wp.float64(2.0) * (one - v)
     # the inner budget per unit v as before the map (its sum over the v range is tol_in)
-    f, e, used, used_ref = inner_integral(p, cm, sm, tm, x.tol_in / (jac * x.carry), x.max_rules)
+    f, e, used, used_ref = inner_integral_scaled(p, cm, sm, tm, x.tol_in / (jac * x.carry), x.max_rules, scale)
+    size = wp.max(wp.abs(f[0]), wp.abs(f[1]))
     jac = jac * dvdw
-    return f * jac, e * (jac * x.carry), wp.vec2i(used, used_ref)
+    return f * jac, e * (jac * x.carry), wp.vec2i(used, used_ref), size
 
 
 @wp.func
@@ -203,6 +206,7 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
     g = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     d = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
     accepted = int(0)
+    scale = wp.float64(0.0)  # the previous node's inner integral (none before the first)
     first = x.first
     if x.near0 > wp.float64(0.0) and first > 0:
         # tan(theta_m) ~ sqrt(v) near v = 0: its branch point sits just before an interval that
@@ -232,7 +236,7 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
                 if wp.max(d[0], d[1]) <= x.thr * (wb - wa):
                     accepted = 1
                     break
-        f, e, used = _v_node(p, x, ctr, hl, j)
+        f, e, used, scale = _v_node(p, x, ctr, hl, j, scale)
         rules += used
         f0[j] = f[0]
         f1[j] = f[1]
@@ -307,6 +311,7 @@ def texel_kernel(
     outer_grade: wp.float64,
     outer_tail: wp.float64,
     normal_map: wp.float64,
+    normal_split: wp.float64,
     inner_first_tail: wp.float64,
     outer_first_tail: wp.float64,
     second_tail: wp.float64,
@@ -335,6 +340,7 @@ def texel_kernel(
     p.inner_map = inner_map
     p.second_safety = second_safety
     p.normal_map = normal_map
+    p.normal_split = normal_split
     p.first_tail = inner_first_tail
     p.second_tail = second_tail
     # the outer level's start (bsdf_tab.integrate.outer): breakpoints, floor, D tail left out;
@@ -437,6 +443,7 @@ def integrate_texels(
     outer_grade: float | None = None,
     outer_tail: float = TAIL_FLOOR,
     normal_map: float = NORMAL_MAP,
+    normal_split: float = NORMAL_SPLIT,
     inner_first_tail: float = 0.0,
     outer_first_tail: float = TAIL_FLOOR,
     second_tail: float = TAIL_FLOOR,
@@ -491,7 +498,11 @@ def integrate_texels(
         round 12): the outer |K15 - G7| floored at that factor times GAMMA14 (|c13| + |c14|)
         min(1, r), the interpolant's tail pair. ``normal_map`` (0.03; 0: off, before round 12):
         Beckmann texels map the inner piece's end phi = 0 where the point o_r = n, at phi = i y0,
-        is within that share of the piece (y0 < normal_map b). ``outer_first_tail`` (0.1; 0: off,
+        is within that share of the piece (y0 < normal_map b). ``normal_split`` (0.3; 0: off, before
+        round 13): Beckmann texels with alpha > 0.5 start that piece in halves where the point is
+        within that share of it (y0 < normal_split b) and the inner tolerance is below 3e-7 of the
+        outer rule's previous inner integral (one K15 there is rejected and bisected anyway; -6%
+        evaluations on the Beckmann albedo at 5e-7). ``outer_first_tail`` (0.1; 0: off,
         before round 12) and ``second_tail`` (0.1; 0: off): the outer first stage's |G7 - I5| = GAMMA6
         |c6| of the 7 Gauss values floored at that factor times GAMMA6 (|c5| + |c6|) min(1, r), and
         the inner second stage's |G7 - I9| = GAMMA10 |c10| of its 11 values at GAMMA10 (|c9| + |c10|)
@@ -527,7 +538,8 @@ def integrate_texels(
         outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
-    check_factors(False, outer_tail=outer_tail, normal_map=normal_map, inner_first_tail=inner_first_tail,
+    check_factors(False, outer_tail=outer_tail, normal_map=normal_map, normal_split=normal_split,
+                  inner_first_tail=inner_first_tail,
                   outer_first_tail=outer_first_tail, second_tail=second_tail, outer_near0=outer_near0)
     if not isinstance(shared_error, (bool, np.bool_)):
         raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
@@ -579,7 +591,7 @@ def integrate_texels(
         float(max_dtheta), err_floor, float(bound_share), int(inner_first), float(first_share), float(first_safety),
         int(outer_map), float(inner_carry), int(outer_first), float(outer_first_safety), float(outer_first_spread),
         int(inner_map),
-        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), float(outer_tail), float(normal_map), float(inner_first_tail), float(outer_first_tail), float(second_tail), float(outer_near0), value, error, cost, detail,
+        float(ramp_cut), float(second_safety), int(bool(shared_error)), float(outer_grade), float(outer_tail), float(normal_map), float(normal_split), float(inner_first_tail), float(outer_first_tail), float(second_tail), float(outer_near0), value, error, cost, detail,
     ], dev)
 
     # on the CPU, interleave the texels so that expensive ones (grazing mu) spread over the

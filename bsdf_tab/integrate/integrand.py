@@ -97,6 +97,7 @@ class TexelParams:
     first_tail: wp.float64  # adaptive only: the inner first stage's factor on its tail floor (0: off)
     second_tail: wp.float64  # adaptive only: the inner second stage's factor on its tail floor (0: off)
     normal_map: wp.float64  # adaptive only: map phi = 0 where o_r = n is this close (Beckmann; 0: off)
+    normal_split: wp.float64  # adaptive only: start the first inner piece in halves where o_r = n is this close (Beckmann; 0: off)
     bound_share: wp.float64  # adaptive only: share of the tolerance for D-tail mass bounds (< 0: no bounds)
 
 
