@@ -22,7 +22,10 @@ Fresnel at the critical angle linear and the horizons' kinks smooth; no map at p
 where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
 the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped; but Beckmann
 texels map phi = 0 where the point o_r = n, at phi = i y0, lies within ``NORMAL_MAP`` = 0.03 of
-the piece: Beckmann's Lambda is not analytic at theta_o = 0, round 12), and integrated by
+the piece: Beckmann's Lambda is not analytic at theta_o = 0, round 12; and start that piece in
+halves where the point lies within ``NORMAL_SPLIT`` = 0.3 of it, alpha > 0.5 and the tolerance is
+below 3e-7 of the previous node's inner integral, where one K15 would be rejected anyway: round
+13), and integrated by
 adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise 4 of

@@ -6,7 +6,9 @@ reflection horizon, i.m = 0, the critical angle of an eta < 1 Fresnel, the trans
 horizon). :func:`inner_integral` splits [0, pi] at those cuts, drops the pieces where every
 channel vanishes, maps each piece at the ends that need it (``p.inner_map``,
 :func:`bsdf_tab.integrate.quadrature.end_map`) and integrates it by globally adaptive G7-K15
-as a three-stage rule (:func:`gk_phi`). :mod:`bsdf_tab.integrate.adaptive` has the method's
+as a three-stage rule (:func:`gk_phi`); :func:`inner_integral_scaled` also takes the size of a
+neighbouring inner integral, with which a Beckmann texel starts its first piece in halves near
+o_r = n where the tolerance is tight (issue 14, round 13). :mod:`bsdf_tab.integrate.adaptive` has the method's
 account of the estimates and the measurements behind them; this module is its inner half, as
 :mod:`bsdf_tab.integrate.outer` is the start of its outer one.
 """
