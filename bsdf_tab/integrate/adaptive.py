@@ -21,11 +21,8 @@ split at those points, each piece mapped at the ends that need it (``inner_map``
 Fresnel at the critical angle linear and the horizons' kinks smooth; no map at phi = 0 or pi,
 where the integrand is even and smooth; issue 14, seventh round: -14 .. -27% evaluations against
 the smoothstep at every end; at tolerances >= 1e-3 only the critical cut is mapped; but Beckmann
-texels map phi = 0 where the point o_r = n, at phi = i y0, lies within ``NORMAL_MAP`` = 0.03 of
-the piece: Beckmann's Lambda is not analytic at theta_o = 0, round 12; and start that piece in
-halves where the point lies within ``NORMAL_SPLIT`` = 0.3 of it, alpha > 0.5 and the tolerance is
-below 3e-7 of the previous node's inner integral, where one K15 would be rejected anyway: round
-13), and integrated by
+texels map phi = 0 or halve the piece near the point o_r = n, where Lambda is not analytic,
+``NORMAL_MAP``, ``NORMAL_SPLIT``: :mod:`bsdf_tab.integrate.inner`, rounds 12 and 13), and integrated by
 adaptive G7-K15 as a three-stage rule (issue 14, rounds 4 and 11): the 7 Gauss nodes first, and G7
 is accepted with the error ``first_safety`` |G7 - I5| = 8 |G7 - I5| (I5 the interpolatory rule on
 5 of those nodes) where that fits the interval's share of the piece's tolerance; otherwise 4 of
@@ -112,12 +109,10 @@ the estimates that under-reported: the decay ratio, r^6, the outer first stage a
 ``max_rules_inner`` per phi piece): a texel that cannot reach the tolerance within the cap
 reports its large estimate instead of a wrong small one.
 
-Where the pieces live: the integrand, the mirror limit, the mass bound and the breakpoints'
-thresholds in :mod:`bsdf_tab.integrate.integrand` (shared with the fixed-effort methods); the
-D cos CDF v(theta_m) and its inverse in :mod:`bsdf_tab.model`; the G7-K15 and I5 constants, the
-error models and the global bisection (both levels) in :mod:`bsdf_tab.integrate.quadrature`.
-The inner phi level (its cuts, end maps and two-stage rule) is :mod:`bsdf_tab.integrate.inner`,
-the outer level's start and piece map :mod:`bsdf_tab.integrate.outer`; this module holds the
+Where the pieces live: the integrand, mirror limit, mass bound and thresholds in
+:mod:`bsdf_tab.integrate.integrand`; v(theta_m) in :mod:`bsdf_tab.model`; the rules, error models
+and global bisection in :mod:`bsdf_tab.integrate.quadrature`; the inner phi level in
+:mod:`bsdf_tab.integrate.inner`, the outer start in :mod:`bsdf_tab.integrate.outer`; here the
 outer rule, the kernel and its launcher.
 
 References: Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces";
@@ -222,8 +217,7 @@ def _gk_v(p: TexelParams, x: OuterX, wa: wp.float64, wb: wp.float64):
             vb0, _d1 = v_of_w(x, wb)
             if vb0 - va0 > x.near0 * va0:
                 first = 0
-    # one call site of _v_node (it holds the whole inner integral: a second one doubled the
-    # CUDA compile): the 7 Gauss nodes (odd j) first, then the first stage, then the 8 others
+    # one call site of _v_node (a second doubled the CUDA compile): 7 Gauss nodes, first stage, 8 others
     for k in range(15):
         j = 2 * k + 1
         if k >= 7:
@@ -394,8 +388,7 @@ def texel_kernel(
     # floor (err_floor, see integrate_texels): what the estimates cannot certify
     error[i, 0] = wp.max(err[0] / PI64, err_floor)
     error[i, 1] = wp.max(err[1] / PI64, err_floor)
-    # integrand evaluations (the inner rules count theirs: 15 or 7 per application, 1 for a
-    # phi-independent integrand)
+    # integrand evaluations (the inner rules count theirs; 1 for a phi-independent integrand)
     cost[i] = rules[0]
     # where they went: (outer floor, outer bisections) x (inner first rules, inner bisections)
     fl = rules - rules_ref
@@ -501,11 +494,9 @@ def integrate_texels(
         round 12): the outer |K15 - G7| floored at that factor times GAMMA14 (|c13| + |c14|)
         min(1, r), the interpolant's tail pair. ``normal_map`` (0.03; 0: off, before round 12):
         Beckmann texels map the inner piece's end phi = 0 where the point o_r = n, at phi = i y0,
-        is within that share of the piece (y0 < normal_map b). ``normal_split`` (0.3; 0: off, before
-        round 13): Beckmann texels with alpha > 0.5 start that piece in halves where the point is
-        within that share of it (y0 < normal_split b) and the inner tolerance is below 3e-7 of the
-        outer rule's previous inner integral (one K15 there is rejected and bisected anyway; -6%
-        evaluations on the Beckmann albedo at 5e-7). ``outer_first_tail`` (0.1; 0: off,
+        is within that share of the piece (y0 < normal_map b); ``normal_split`` (0.3; 0: off, before
+        round 13) starts that piece in halves where y0 < normal_split b and one K15 would be
+        rejected anyway (:mod:`bsdf_tab.integrate.inner`). ``outer_first_tail`` (0.1; 0: off,
         before round 12) and ``second_tail`` (0.1; 0: off): the outer first stage's |G7 - I5| = GAMMA6
         |c6| of the 7 Gauss values floored at that factor times GAMMA6 (|c5| + |c6|) min(1, r), and
         the inner second stage's |G7 - I9| = GAMMA10 |c10| of its 11 values at GAMMA10 (|c9| + |c10|)
@@ -541,9 +532,8 @@ def integrate_texels(
         outer_grade = OUTER_GRADE
     if not (math.isfinite(float(outer_grade)) and (float(outer_grade) == 0.0 or float(outer_grade) > 1.0)):
         raise ValueError(f"outer_grade must be 0 (off) or a finite number > 1, got {outer_grade!r}")
-    check_factors(False, outer_tail=outer_tail, normal_map=normal_map, normal_split=normal_split,
-                  inner_first_tail=inner_first_tail,
-                  outer_first_tail=outer_first_tail, second_tail=second_tail, outer_near0=outer_near0)
+    check_factors(False, outer_tail=outer_tail, normal_map=normal_map, normal_split=normal_split, outer_near0=outer_near0,
+                  inner_first_tail=inner_first_tail, outer_first_tail=outer_first_tail, second_tail=second_tail)
     if not isinstance(shared_error, (bool, np.bool_)):
         raise ValueError(f"shared_error must be True or False, got {shared_error!r}")
     if not (math.isfinite(inner_carry) and inner_carry > 0.0):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..model.distribution import BECKMANN
+from ..model.shadowing import CORRELATED
 from .integrand import (
     MODE_DIELECTRIC, PI64, TexelParams, cos_0_pi, fresnel_knee, integrand_cos, integrand_phi, phi_of_c,
     tir_eta,
@@ -44,6 +45,9 @@ MASK_S2 = wp.constant((1 << 2) | (1 << 4) | (1 << 10) | (1 << 12))
 # K15's estimate near that point measured 2.5e-7 .. 3.4e-7 of it: a looser tolerance accepts it)
 NORMAL_SPLIT_ALPHA = wp.constant(wp.float64(0.5))
 NORMAL_SPLIT_REL = wp.constant(wp.float64(3.0e-7))
+# ... and only where Lambda_o has weight in G: the correlated G / mu = 1 / (mu + li + mu Lambda_o)
+# weighs it by G1(i) = mu / (mu + li), 0 at grazing incidence (there the halves cost +25% at mu = 0)
+NORMAL_SPLIT_WEIGHT = wp.constant(wp.float64(0.1))
 
 
 # inlined into gk_phi (its two calls): out of line it took p, x, f0 and f1 by value, ~0.5 KB
@@ -258,7 +262,8 @@ def inner_integral_scaled(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp
             x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero)
             halves = False
             if (a == zero and p.dist == BECKMANN and p.normal_split > zero and p.alpha > NORMAL_SPLIT_ALPHA
-                    and tol < NORMAL_SPLIT_REL * scale):
+                    and tol < NORMAL_SPLIT_REL * scale
+                    and (p.shadowing != CORRELATED or p.mu > NORMAL_SPLIT_WEIGHT * (p.mu + p.li))):
                 # the same point o_r = n, within normal_split of the piece (y0 < normal_split b): one
                 # K15 over the piece is ~1e-12 off there, but its estimate (the Legendre pairs
                 # plateau before they fall) ~3e-7 of the integral, so a tighter tolerance rejects
