@@ -12,7 +12,7 @@ b = 36 (``LAMBDA_B_MAX``: Lambda < 1.5e-19 beyond, where a Smith G takes it as 0
 the scale come from b's exponent and first 5 mantissa bits, with no conversion of b.
 
 Chebyshev interpolants computed by ``mpmath.chebyfit`` at 40 digits from the definition above;
-with the coefficients rounded to float64 each polynomial is within 5.8e-17 (1 + Lambda) of
+with the coefficients rounded to float64 each polynomial is within 6.1e-17 (1 + Lambda) of
 Lambda on 41 points of its piece (tests/model/test_model_lambda_b_table.py refits them and checks
 the native code against mpmath).
 """
