@@ -139,6 +139,18 @@ def gk_phi(p: TexelParams, x: vec8d, ta: wp.float64, tb: wp.float64):
     return rk * hl, gk_error(rk * hl, rg * hl, resasc * hl, p.err_model_inner), int(15)
 
 
+@wp.func
+def _normal_point_within(p: TexelParams, cm: wp.float64, ss: wp.float64, y: wp.float64):
+    """Whether the point o_r = n lies within y of phi = 0 (Beckmann's Lambda, exp(-cot^2 theta_o /
+    alpha^2), is not analytic there): it sits at phi = i y0, cosh(y0) = ((1 + mu) / (2 cos theta_m)
+    - mu cos theta_m) / ss (ss = sin theta_i sin theta_m), near phi = 0 when theta_m ~ theta_i / 2.
+    cosh(y) by its Taylor polynomial to y^4: a threshold (the y^6 / 720 left out moves it by < 2e-8
+    at the map's y <= 0.03 pi, < 1e-3 relative at the halves' y <= 0.3 pi); no exp per inner integral."""
+    one = wp.float64(1.0)
+    y2 = y * y
+    return (one + p.mu) / (wp.float64(2.0) * cm) - p.mu * cm < (one + y2 * wp.float64(0.5) * (one + y2 / wp.float64(12.0))) * ss
+
+
 # globally adaptive G7-K15 over one phi piece (t in [0, 1]): bisect the worst interval until the
 # summed error of both channels is below the piece's share of the inner tolerance
 _adaptive_piece = make_global_bisection(gk_phi)
@@ -249,28 +261,20 @@ def inner_integral_scaled(p: TexelParams, cm: wp.float64, sm: wp.float64, tm: wp
             elif p.inner_map == 2:
                 ends = wp.where(a == phi_crit, 1, 0) + wp.where(b == phi_crit, 2, 0)
             if a == zero and p.dist == BECKMANN and p.normal_map > zero:
-                # Beckmann's Lambda is not analytic where o_r = n (exp(-cot^2 theta_o / alpha^2)):
-                # at phi = i y0, cosh(y0) = ((1 + mu) / (2 cos theta_m) - mu cos theta_m) / ss,
-                # near phi = 0 when theta_m ~ theta_i / 2. Closer than normal_map times the piece,
-                # G7 and K15 agreed there to 1e-8 while both missed 1.7e-7 (issue 14, round 12):
-                # phi = 0 is mapped, which moves the point away from the nodes' reach
-                # cosh(y), y = normal_map b (<= 0.03 pi by default), by its Taylor polynomial (a threshold:
-                # the y^6 / 720 left out is below 2e-8 there; no exp per inner integral)
-                y2 = p.normal_map * b * p.normal_map * b
-                if (one + p.mu) / (wp.float64(2.0) * cm) - p.mu * cm < (one + y2 * wp.float64(0.5) * (one + y2 / wp.float64(12.0))) * ss:
+                # closer than normal_map times the piece, G7 and K15 agreed to 1e-8 while both
+                # missed 1.7e-7 (issue 14, round 12): phi = 0 is mapped, which moves the point
+                # away from the nodes' reach
+                if _normal_point_within(p, cm, ss, p.normal_map * b):
                     ends = ends | 1
             x = vec8d(cm, sm, tm, a, b, p.first_share * tp, wp.float64(ends), zero)
             halves = False
             if (a == zero and p.dist == BECKMANN and p.normal_split > zero and p.alpha > NORMAL_SPLIT_ALPHA
                     and tol < NORMAL_SPLIT_REL * scale
                     and (p.shadowing != CORRELATED or p.mu > NORMAL_SPLIT_WEIGHT * (p.mu + p.li))):
-                # the same point o_r = n, within normal_split of the piece (y0 < normal_split b): one
-                # K15 over the piece is ~1e-12 off there, but its estimate (the Legendre pairs
-                # plateau before they fall) ~3e-7 of the integral, so a tighter tolerance rejects
-                # it and bisects; the halves from the start save that rule (round 13)
-                y2 = p.normal_split * b * p.normal_split * b
-                if (one + p.mu) / (wp.float64(2.0) * cm) - p.mu * cm < (one + y2 * wp.float64(0.5) * (one + y2 / wp.float64(12.0))) * ss:
-                    halves = True
+                # within normal_split of the piece one K15 is ~1e-12 off, but its estimate (the
+                # Legendre pairs plateau before they fall) ~3e-7 of the integral, so a tighter
+                # tolerance rejects it and bisects; the halves from the start save that rule (round 13)
+                halves = _normal_point_within(p, cm, ss, p.normal_split * b)
             if halves:
                 r, e, used, used_ref = _adaptive_piece(p, x, wp.vec3d(zero, wp.float64(0.5), one), 2, tp, max_rules, int(0))
             else:

@@ -283,8 +283,8 @@ def beckmann_lambda_cos_abs(cos_theta_v: wp.float64, alpha: wp.float64):
 
 
 # Lambda(b), b = a^2, as native code (issue 14, thirteenth round): the piece from b's exponent and
-# first four mantissa bits (no conversion of b to an integer), its local variable by an exact
-# scaling; 0 from b = 36 on and for nan (the caller handles b < 2^LAMBDA_B_E_MIN)
+# first mantissa bits (no conversion of b to an integer), its local variable by an exact scaling;
+# 0 from b = 36 on, below 2^LAMBDA_B_E_MIN (the callers' root form) and for nan
 _LAMBDA_B_BITS = LAMBDA_B_PER_OCTAVE.bit_length() - 1  # pieces per octave: 2^_LAMBDA_B_BITS
 assert LAMBDA_B_PER_OCTAVE == 1 << _LAMBDA_B_BITS and len(set(map(len, LAMBDA_B_PIECES))) == 1
 LAMBDA_B_MIN = wp.constant(wp.float64(2.0**LAMBDA_B_E_MIN))  # a = 1/16: below, the root and ierfc
