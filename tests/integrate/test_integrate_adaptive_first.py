@@ -378,7 +378,9 @@ def test_first_stage_margin(texels, tol):
 
 @pytest.mark.parametrize("bad", [{"inner_first": 4}, {"inner_first": 7}, {"inner_first": True}, {"first_share": 1.5},
                                  {"first_share": float("nan")}, {"first_safety": 0.0}, {"first_safety": float("inf")},
-                                 {"err_power": 0.0}, {"err_power": -1.0}, {"err_safety": 0.0}, {"err_safety": float("nan")}])
+                                 {"err_power": 0.0}, {"err_power": -1.0}, {"err_safety": 0.0}, {"err_safety": float("nan")},
+                                 {"normal_split": -0.1}, {"normal_split": float("nan")}, {"normal_split": True},
+                                 {"normal_map": float("inf")}, {"outer_near0": -1.0}])
 def test_estimate_keywords_are_validated(bad):
     # 4 or 7 used to mean I3 silently (the kernel's "else"), NaN shares and zero factors to run;
     # a power <= 0 made the pow-free branch of gk_error_decay report the floor for a zero ratio
