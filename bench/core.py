@@ -88,7 +88,8 @@ def _time(fn, repeats=3):
     return statistics.median(times), out
 
 
-def _flat(table, mode):
+def flat_texels(table, mode):
+    """A table's texels as flat float64 mu, alpha, eta and its values (texels x channels)."""
     axes = list(table.axes.values())
     grids = np.meshgrid(*axes, indexing="ij")
     mu = grids[0].ravel()
@@ -99,7 +100,8 @@ def _flat(table, mode):
     return mu, alpha, eta, values
 
 
-def _kw(table, spec):
+def integrator_keywords(spec):
+    """The adaptive integrator's keywords (distribution, shadowing, Fresnel, tolerance) of a spec."""
     from bsdf_tab.spec import normalize_spec
     from bsdf_tab.tables._common import integrator_params
 
@@ -112,8 +114,8 @@ def cost_report(table, spec, mode, t_warp, variants=(), device=None, values=None
     that receives the float64 values and reported errors (for ``--save-values``)."""
     from bsdf_tab.integrate.adaptive import integrate_texels
 
-    mu, alpha, eta, ours = _flat(table, mode)
-    kw = _kw(table, spec)
+    mu, alpha, eta, ours = flat_texels(table, mode)
+    kw = integrator_keywords(spec)
     v, err, detail = integrate_texels(mode, mu, alpha, eta, return_cost="detail", device=device, **kw)
     if values is not None:
         values.update(v=v, err=err, evals=detail.sum(1))
@@ -213,7 +215,7 @@ def run(quick: bool, cost: bool = True, variants=(), tol=None, device=None, nump
                           f"same evaluation count {c['texels_same_evals']:.1%} (mean {c['evals_mean']:.0f} "
                           f"against {c['evals_mean_reference']:.0f})", flush=True)
             continue
-        mu, alpha, eta, ours = _flat(table, mode)
+        mu, alpha, eta, ours = flat_texels(table, mode)
         keep = alpha > 0  # alpha = 0 texels are closed forms for us; the baseline skips them
         dist = spec.get("distribution", "ggx")
         best = None

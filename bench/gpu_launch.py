@@ -79,8 +79,8 @@ def main(argv=None, prog=None) -> int:
         if args.tol is not None:
             spec["tolerance"] = args.tol
         table = bsdf_tab.tabulate(spec, device=dev)
-        mu, alpha, eta, _ = core._flat(table, mode)
-        cases.append((name, mode, mu, alpha, eta, core._kw(table, spec)))
+        mu, alpha, eta, _ = core.flat_texels(table, mode)
+        cases.append((name, mode, mu, alpha, eta, core.integrator_keywords(spec)))
     rows = []
     configs = [(d, c, o) for d in dims for c in chunks for o in orders]
 

@@ -29,6 +29,10 @@ default:
   mu log-uniform in 1e-6 .. 0.1, the rest uniform in [0, 1] (the first five mu 0, 1, 1 - 1e-7,
   1e-8 and 0.5), alpha log-uniform in 5e-4 .. 2. The draws are those of the rounds' scans: a seed
   gives the texels docs/methods.md counted.
+- ``core``: the four tables of ``bench/core.py`` (albedo 32^2 GGX and Beckmann, dielectric 16^3
+  with eta > 1 and eta < 1; 10 240 texels), for what a variant costs and misses where the speed
+  goals are measured (docs/methods.md, fourteenth round:
+  ``--scan core --tols 1e-3 --variant outer_first_safety=1e-12`` and the like).
 """
 
 from __future__ import annotations
@@ -51,7 +55,7 @@ from bsdf_tab.integrate import integrate_texels  # noqa: E402
 
 TOLS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 5e-7, 1e-7)
 REFERENCE_TOL = 1e-11
-SCANS = ("normal", "grazing", "general", "random")
+SCANS = ("normal", "grazing", "general", "random", "core")
 
 
 @dataclass(frozen=True)
@@ -64,8 +68,11 @@ class Family:
     shadowing: int = 1
     fresnel: dict = field(default_factory=dict)
     eta: float | None = None
+    name: str | None = None  # a label of its own (the core scan's table names)
 
     def label(self) -> str:
+        if self.name:
+            return self.name
         parts = [self.mode, ("GGX", "Beckmann")[self.dist], ("separable", "correlated")[self.shadowing]]
         if self.fresnel:
             parts.append(json.dumps(self.fresnel, sort_keys=True))
@@ -150,10 +157,26 @@ def scan_random(seed: int, n: int = 2000) -> list[Texels]:
     return out
 
 
+def scan_core() -> list[Texels]:
+    """The texels of ``bench/core.py``'s four tables (their axes from a bake at tolerance 1e-2)."""
+    import bsdf_tab
+    from bench import core
+
+    out = []
+    for name, spec, mode in core.CASES:
+        kw = core.integrator_keywords(spec)
+        table = bsdf_tab.tabulate(dict(spec, tolerance=1e-2))
+        mu, alpha, eta, _ = core.flat_texels(table, mode)
+        fresnel = {k: kw[k] for k in ("ftype", "fp0", "fp1") if kw.get(k)}
+        out.append(Texels(Family(mode, kw["dist"], kw["shadowing"], fresnel, name=name), mu, alpha,
+                          eta if mode == "dielectric" else None))
+    return out
+
+
 def texels_of(scan: str, seed: int = 1, n: int = 2000) -> list[Texels]:
     if scan == "random":
         return scan_random(seed, n)
-    return {"normal": scan_normal, "grazing": scan_grazing, "general": scan_general}[scan]()
+    return {"normal": scan_normal, "grazing": scan_grazing, "general": scan_general, "core": scan_core}[scan]()
 
 
 def _integrate(t: Texels, tol: float, variant: dict, cost: bool):
@@ -167,8 +190,8 @@ def run(texels: list[Texels], tols, variants, progress=print) -> list[dict]:
     ratio (|value - reference| - reference estimate) / reported error, and every texel-tolerance
     whose ratio is above 0.5 (``cases``: ratio, family, tolerance, mu, alpha, eta, channel, the
     true error and the reported one)."""
-    acc = {(i, tol): {"variant": v, "tol": tol, "evaluations": 0, "texel_channels": 0, "dishonest": 0,
-                      "worst": 0.0, "worst_family": None, "cases": []}
+    acc = {(i, tol): {"variant": v, "tol": tol, "evaluations": 0, "texels": 0, "texel_channels": 0, "dishonest": 0,
+                      "worst": 0.0, "worst_family": None, "families": {}, "cases": []}
            for i, v in enumerate(variants) for tol in tols}
     for t in texels:
         ref, ref_err = _integrate(t, REFERENCE_TOL, {}, False)
@@ -181,8 +204,13 @@ def run(texels: list[Texels], tols, variants, progress=print) -> list[dict]:
                 ratio = np.where(true > 0.0, true / np.maximum(err, 1e-300), 0.0)
                 row = acc[(i, tol)]
                 row["evaluations"] += int(cost.sum())
+                row["texels"] += int(cost.size)
                 row["texel_channels"] += int(ratio.size)
                 row["dishonest"] += int(np.count_nonzero(ratio > 1.0))
+                fam = row["families"].setdefault(t.family.label(), {"evaluations": 0, "texels": 0, "dishonest": 0})
+                fam["evaluations"] += int(cost.sum())
+                fam["texels"] += int(cost.size)
+                fam["dishonest"] += int(np.count_nonzero(ratio > 1.0))
                 k = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
                 if ratio[k] > row["worst"]:
                     row["worst"], row["worst_family"] = float(ratio[k]), t.family.label()
@@ -197,10 +225,16 @@ def run(texels: list[Texels], tols, variants, progress=print) -> list[dict]:
 
 
 def _print(rows, scan):
-    print(f"\n{'variant':<36} {'tol':>7} {'evaluations':>14} {'dishonest':>9} {'worst':>6}  worst family")
+    print(f"\n{'variant':<36} {'tol':>7} {'evaluations':>14} {'per texel':>9} {'dishonest':>9} {'worst':>6}  worst family")
     for r in rows:
-        print(f"{json.dumps(r['variant']):<36} {r['tol']:>7.0e} {r['evaluations']:>14} {r['dishonest']:>9} "
+        print(f"{json.dumps(r['variant']):<36} {r['tol']:>7.0e} {r['evaluations']:>14} "
+              f"{r['evaluations'] / max(r['texels'], 1):>9.1f} {r['dishonest']:>9} "
               f"{r['worst']:>6.2f}  {r['worst_family'] or '-'}")
+    if len(rows[0]["families"]) <= 8:  # a few families (the core scan): each on its own line
+        print("\nper family: evaluations per texel (dishonest texel-channels)")
+        for r in rows:
+            print(f"{json.dumps(r['variant']):<36} {r['tol']:>7.0e}  " + "; ".join(
+                f"{k} {f['evaluations'] / max(f['texels'], 1):.1f} ({f['dishonest']})" for k, f in r["families"].items()))
     for r in rows:
         shown = sorted((c for c in r["cases"] if c["ratio"] > 1.0 or c["tol"] < 1e-4),
                        key=lambda c: -c["ratio"])[:6]
@@ -212,7 +246,7 @@ def _print(rows, scan):
 
 def main(argv=None, prog=None) -> int:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n")[0])
-    parser.add_argument("--scan", default="random", help="normal, grazing, general or random (default)")
+    parser.add_argument("--scan", default="random", help="normal, grazing, general, random (default) or core")
     parser.add_argument("--seed", type=int, default=41, help="the random scan's seed (default 41)")
     parser.add_argument("--texels", type=int, default=2000, help="texels per random family (default 2000)")
     parser.add_argument("--tols", default=",".join(f"{t:g}" for t in TOLS))

@@ -71,6 +71,35 @@ def test_scan_finds_the_known_miss_and_only_with_its_variant():
     assert abs(v[0, 0] - r.value) <= r.err + e[0, 0] + 1e-12
 
 
+def test_core_scan_is_bench_core_tables():
+    from bench import core
+
+    texels = hs.scan_core()
+    assert [t.family.label() for t in texels] == [name for name, _, _ in core.CASES]
+    assert [t.mu.size for t in texels] == [1024, 1024, 4096, 4096]
+    assert [t.family.dist for t in texels] == [0, 1, 0, 0]
+    assert texels[0].eta is None and texels[1].eta is None
+    assert np.all(texels[2].eta > 1.0) and np.all(texels[3].eta < 1.0)
+    for t in texels:
+        assert t.mu.min() == 0.0 and t.mu.max() == 1.0 and t.alpha.max() <= 1.0
+
+
+def test_core_scan_counts_each_table_and_sees_an_uncertified_start():
+    """Every first stage accepted (the fourteenth round's variant): fewer evaluations, and texels
+    that report less than their true error; the default honest on the same texels."""
+    texels = [hs.Texels(t.family, t.mu[::37], t.alpha[::37], None if t.eta is None else t.eta[::37])
+              for t in hs.scan_core()[:3]]
+    accept = {"first_safety": 1e-12, "second_safety": 1e-12, "outer_first_safety": 1e-12}
+    default, variant = hs.run(texels, [1e-3], [{}, accept], progress=lambda s: None)
+    assert list(default["families"]) == [t.family.label() for t in texels]
+    for name, fam in default["families"].items():
+        other = variant["families"][name]
+        assert fam["dishonest"] == 0 and fam["texels"] == other["texels"] > 0
+        assert other["evaluations"] < 0.7 * fam["evaluations"], (name, fam, other)
+    assert variant["dishonest"] > 0 and variant["worst"] > 10.0
+    assert default["texels"] == sum(t.mu.size for t in texels)
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--scan", "nope"], "--scan must be one of"),
     (["--tols", "1e-3,abc"], "bad --tols"),
