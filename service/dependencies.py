@@ -14,7 +14,7 @@ from starlette.requests import ClientDisconnect
 from .compute import TableStore
 from .errors import ClientGone, ServiceError
 
-__all__ = ["ClientGone", "etag_matches", "jobs_of", "read_json_body", "store_of"]
+__all__ = ["ClientGone", "accept_of", "etag_matches", "jobs_of", "read_json_body", "store_of"]
 
 log = logging.getLogger("bsdf_tab.service")
 
@@ -27,6 +27,16 @@ def store_of(request: Request) -> TableStore:
 def jobs_of(request: Request):
     """The app's :class:`~service.jobs.Jobs`."""
     return request.app.state.jobs
+
+
+def accept_of(request: Request) -> str | None:
+    """The ``Accept`` header: its field lines joined by commas, as RFC 9110 5.3 combines them.
+
+    ``request.headers.get`` would read the first line only, while a cache or the hot path may
+    see them all: one reading for every consumer keeps a response filed under what it answered.
+    """
+    lines = request.headers.getlist("accept")
+    return ", ".join(lines) if lines else None
 
 
 def etag_matches(request: Request, etag: str) -> bool:

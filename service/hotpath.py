@@ -40,13 +40,15 @@ class HotPath:
     @staticmethod
     def request_key(scope) -> tuple | None:
         """(path, query, Accept) of a plain GET that may be remembered, else None."""
-        accept = b""
+        accept = None
         for name, value in scope["headers"]:
             if name == b"accept":
+                if accept is not None:  # several Accept lines: the route combines them; not remembered
+                    return None
                 accept = value
             elif name == b"if-none-match":  # conditional: the route decides (304)
                 return None
-        return scope["path"], scope.get("query_string", b""), accept
+        return scope["path"], scope.get("query_string", b""), accept or b""
 
     def remember(self, scope, name: str, status: int, headers: list[tuple[bytes, bytes]]) -> None:
         """Record the answer to ``scope``: entry ``name`` of the memory LRU with these raw headers."""

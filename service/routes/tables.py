@@ -8,7 +8,7 @@ from fastapi.responses import JSONResponse, Response
 from bsdf_tab.spec import TABLE_KINDS, channel_names
 
 from ..compute import Prepared
-from ..dependencies import etag_matches, read_json_body, store_of
+from ..dependencies import accept_of, etag_matches, read_json_body, store_of
 from ..errors import ServiceError
 from ..params import (
     FORMAT_PARAM,
@@ -84,7 +84,7 @@ async def send_variant(request: Request, prep: Prepared, variant: str, media_typ
 
 
 async def send_table(request: Request, spec: dict | None, fmt_param: str | None, prep: Prepared | None = None) -> Response:
-    fmt = negotiate(fmt_param, request.headers.get("accept"))
+    fmt = negotiate(fmt_param, accept_of(request))
     if prep is None:
         prep = store_of(request).prepare(spec)
     filename = f"{prep.kind}-{prep.key.rsplit('-', 1)[-1][:12]}.{fmt}"
@@ -121,7 +121,7 @@ async def get_table(request: Request) -> Response:
     items = tuple(request.query_params.multi_items())
     prep, extra = store_of(request).prepare_query(
         table, items, lambda: spec_from_query(table, items, extra=("format",)),
-        lambda extra: negotiate(extra.get("format"), request.headers.get("accept")))
+        lambda extra: negotiate(extra.get("format"), accept_of(request)))
     return await send_table(request, None, extra.get("format"), prep)
 
 
@@ -134,7 +134,7 @@ async def get_table(request: Request) -> Response:
 )
 async def get_by_key(key: str, request: Request) -> Response:
     extra = only_params(request.query_params.multi_items(), ("format",))
-    fmt = negotiate(extra.get("format"), request.headers.get("accept"))
+    fmt = negotiate(extra.get("format"), accept_of(request))
     store = store_of(request)
     prep = await store.prepare_key(key)
     return await send_table(request, None, fmt if "format" in extra else None, prep)
@@ -151,7 +151,7 @@ async def get_by_key(key: str, request: Request) -> Response:
 )
 async def post_table(request: Request) -> Response:
     extra = only_params(request.query_params.multi_items(), ("format",))
-    fmt = negotiate(extra.get("format"), request.headers.get("accept"))  # 406 before reading the body
+    fmt = negotiate(extra.get("format"), accept_of(request))  # 406 before reading the body
     spec = await read_json_body(request)
     return await send_table(request, spec, fmt if "format" in extra else None)
 

@@ -42,3 +42,21 @@ def test_evicted_bytes_fall_through_to_the_route(tmp_path):
         again = client.get(URL)
         assert again.content == first.content
         assert client.get("/healthz").json()["hot_path"]["hits"] == 0  # nothing in memory: the disk entry
+
+
+def test_several_accept_lines_are_one_header_and_never_file_an_answer_under_another(tmp_path):
+    """The audit's poisoning: two Accept lines, the route reading the first and the hot path the
+    last, filed a JSON answer under ``Accept: image/x-exr``; later EXR requests got JSON."""
+    exr = "image/x-exr"
+    with TestClient(create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1))) as client:
+        both = client.get(URL, headers=[("Accept", "application/json"), ("Accept", exr)])
+        # combined as RFC 9110 combines field lines: "application/json, image/x-exr", the first of equal q
+        assert both.status_code == 200 and both.headers["content-type"] == "application/json"
+        later = client.get(URL, headers={"Accept": exr})
+        assert later.headers["content-type"] == exr and later.content[:4] == b"v/1\x01"
+        again = client.get(URL, headers={"Accept": exr})
+        assert again.headers["content-type"] == exr and again.content == later.content
+        # q-values across lines: the second line's higher q wins, as within one line
+        weighted = client.get(URL, headers=[("Accept", "application/json;q=0.5"), ("Accept", exr)])
+        assert weighted.headers["content-type"] == exr
+        assert client.get("/healthz").json()["hot_path"]["hits"] == 1  # only the repeated single-line request
