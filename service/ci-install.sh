@@ -1,5 +1,5 @@
 #!/bin/sh
-# Install a headless browser for tests/test_service_live.py (the page test) when none is on PATH.
+# Install a headless browser for tests/service/test_service_live.py (the page test) when none is on PATH.
 # Called by .ci/run. Non-interactive; never fails the CI run (the test skips without a browser).
 set -u
 for b in chromium chromium-browser google-chrome; do
