@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from bsdf_tab.cli.common import CliError
+
 __all__ = ["register"]
 
 
@@ -44,12 +46,12 @@ def _serve(args: argparse.Namespace) -> int:
     except ValueError as exc:  # pydantic ValidationError: one line per field
         errors = getattr(exc, "errors", lambda: [])()
         text = "; ".join(f"--{'-'.join(str(x) for x in e['loc']).replace('_', '-')}: {e['msg']}" for e in errors)
-        raise ValueError(text or str(exc)) from None
+        raise CliError(text or str(exc)) from None
     app = create_app(settings)
     try:
         app.state.store.cache.check_folder()  # a file or unwritable folder: one line, exit 2, before listening
     except ValueError as exc:
-        raise ValueError(f"--cache-dir: {exc}") from None
+        raise CliError(f"--cache-dir: {exc}") from None
     run(app, settings, log_level=args.log_level)
     return 0
 

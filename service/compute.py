@@ -17,11 +17,12 @@
    a pool of ``settings.max_concurrent`` threads (each ``tabulate`` call uses
    ``settings.workers`` threads of its own), never on the event loop; at most
    ``settings.max_queued`` distinct computations wait (more -> 503 with ``Retry-After``).
-   Scenes (:meth:`TableStore.run_scene`) go through the same queue, slots and counters.
-4. Every computation is a :class:`Computation`: its progress callback (called by the library
-   between chunks) raises :class:`Cancelled` once every waiting client has gone (clients are
-   polled for disconnects while they wait; a job is a waiter until it is deleted) or once its
-   wall-clock limit (``max_compute_seconds``, jobs ``job_max_seconds``) has passed.
+   Scenes (:meth:`TableStore.run_scene`) and LUT checks (:meth:`TableStore.run_call`) go
+   through the same queue, slots and counters. Jobs have a lane of their own
+   (``settings.max_concurrent_jobs`` threads), so a long job never holds the synchronous
+   requests' slots.
+4. Every computation is a :class:`~service.computation.Computation` (its cancellation and
+   limits are described there); each waiter leaves after its own limit (:meth:`TableStore.watch`).
 
 ``tabulate`` is looked up on this module at call time, so tests can monkeypatch
 ``service.compute.tabulate`` to count computations.
@@ -39,8 +40,9 @@ import re
 import threading
 import time
 from collections import OrderedDict
+from contextlib import contextmanager
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Awaitable, Callable
 
 import numpy as np
@@ -56,6 +58,7 @@ from bsdf_tab.table import Table
 from .cache import DiskCache, MemoryLRU, SingleFlight, table_key
 from .errors import ClientGone, ServiceError, cost_error
 from .representations import DERIVE, MASTER
+from .computation import Cancelled, Computation
 from .settings import Settings
 
 __all__ = ["Cancelled", "Computation", "TableStore", "Prepared", "validator"]
@@ -72,14 +75,6 @@ _SCENE_RE = re.compile(r"^v[A-Za-z0-9.+_]{1,40}-[0-9a-f]{64}\.scene$")
 MEMO_ENTRIES = 4096
 
 
-class Cancelled(Exception):
-    """A computation stopped between chunks: every client left, it was deleted, or it ran out of time."""
-
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason)
-        self.reason = reason
-
-
 @dataclass(frozen=True)
 class Prepared:
     """A validated request: normalized spec, its resolved axes, cache key and predicted cost."""
@@ -93,38 +88,6 @@ class Prepared:
     @property
     def kind(self) -> str:
         return self.nspec["table"]
-
-
-@dataclass
-class Computation:
-    """One running computation (a table master or a scene): progress, waiters, cancellation."""
-
-    name: str
-    limit_seconds: float
-    started: float = field(default_factory=time.monotonic)
-    done: int = 0
-    total: int = 0
-    waiters: int = 0
-    cancel_reason: str | None = None
-
-    def cancel(self, reason: str) -> None:
-        if self.cancel_reason is None:
-            self.cancel_reason = reason
-
-    def progress(self, done: int, total: int) -> None:
-        """The library's progress callback: records, notifies, and stops the computation if asked."""
-        self.done, self.total = int(done), int(total)
-        if self.cancel_reason is not None:
-            raise Cancelled(self.cancel_reason)
-        if time.monotonic() - self.started > self.limit_seconds:
-            self.cancel(f"over its wall-clock limit of {self.limit_seconds:g} s")
-            raise Cancelled(self.cancel_reason)
-
-    def status(self) -> dict:
-        elapsed = time.monotonic() - self.started
-        return {"name": self.name, "done": self.done, "total": self.total, "waiters": self.waiters,
-                "elapsed_s": round(elapsed, 3), "limit_s": self.limit_seconds,
-                "cancelling": self.cancel_reason}
 
 
 def _normalize(spec) -> dict:
@@ -167,13 +130,14 @@ class TableStore:
         self.memory = MemoryLRU(settings.memory_cache_bytes)
         self.flight = SingleFlight()
         self.compute_pool = ThreadPoolExecutor(settings.max_concurrent, thread_name_prefix="bsdf-tab-compute")
+        self.job_pool = ThreadPoolExecutor(settings.max_concurrent_jobs, thread_name_prefix="bsdf-tab-job")
         self.io_pool = ThreadPoolExecutor(4, thread_name_prefix="bsdf-tab-io")
         self.computations = 0  # computations that finished (or failed), tables and scenes
         self.computing = 0  # computations running now
         self.waiting = 0  # computations waiting for a compute slot, a peer's lock, or running
         self.compute_seconds = 0.0
         self.counters = {"cancelled": 0, "timed_out": 0, "failed": 0, "peer_computed": 0, "scenes": 0,
-                         "rejected_cost": 0, "busy": 0, "client_gone": 0}
+                         "rejected_cost": 0, "busy": 0, "queue_timeout": 0, "client_gone": 0, "checks": 0}
         self.running: dict[str, Computation] = {}
         self._waiters: dict[str, int] = {}
         self._memo: OrderedDict = OrderedDict()
@@ -306,39 +270,47 @@ class TableStore:
             loop = asyncio.get_running_loop()
             return await loop.run_in_executor(self.io_pool, self._derive_and_store, name, master, make)
 
-        return await self.watch(prep.key, self.flight.run(name, produce), client)
+        return await self.watch(prep.key, self.flight.run(name, produce), client, self.settings.max_compute_seconds)
 
-    async def master(self, prep: Prepared, client=None, *, limit_seconds: float | None = None) -> bytes:
+    async def master(self, prep: Prepared, client=None, *, limit_seconds: float | None = None,
+                     lane: str = "sync") -> bytes:
         """The ``npz`` master of the table: cached, or computed exactly once per key at a time.
 
-        The caller is one waiter of the computation (see :meth:`watch`); ``limit_seconds`` is the
-        wall-clock limit of a computation this call starts (default ``max_compute_seconds``).
+        The caller is one waiter of the computation (see :meth:`watch`), for at most
+        ``limit_seconds`` (default ``max_compute_seconds``), which is also the wall-clock limit of
+        a computation this call starts; ``lane`` ``"job"`` runs it in the jobs' pool.
         """
         name = f"{prep.key}.{MASTER}"
         payload = self.memory.get(name)
         if payload is not None:
             return payload
         limit = self.settings.max_compute_seconds if limit_seconds is None else limit_seconds
-        return await self.watch(prep.key, self._master_flight(prep, limit), client)
+        return await self.watch(prep.key, self._master_flight(prep, limit, lane), client, limit)
 
-    async def _master_flight(self, prep: Prepared, limit_seconds: float) -> bytes:
+    async def _master_flight(self, prep: Prepared, limit_seconds: float, lane: str = "sync") -> bytes:
         name = f"{prep.key}.{MASTER}"
         payload = self.memory.get(name)
         if payload is None:
             payload = await self._cache_get(name, validator(MASTER, prep.key))
         if payload is not None:
             return payload
-        return await self.flight.run(name, lambda: self._compute(prep, name, limit_seconds))
+        return await self.flight.run(name, lambda: self._compute(prep, name, limit_seconds, lane))
 
     async def table(self, prep: Prepared) -> Table:
         master = await self.master(prep)
         return Table.from_npz_bytes(master)
 
-    async def watch(self, key: str, awaitable: Awaitable, client=None):
-        """Await ``awaitable`` as one waiter of computation ``key``; the last waiter to leave cancels it."""
+    async def watch(self, key: str, awaitable: Awaitable, client=None, limit_seconds: float | None = None):
+        """Await ``awaitable`` as one waiter of computation ``key``; the last waiter to leave cancels it.
+
+        The waiter leaves when ``client()`` says its client has gone, or after ``limit_seconds``
+        (503: ``busy`` if the computation is still queued, ``time_limit`` if it runs).
+        """
         with self._lock:
             self._waiters_add(key, 1)
         task = asyncio.ensure_future(awaitable)
+        since = time.monotonic()
+        overdue = False
         try:
             while True:
                 done, _ = await asyncio.wait({task}, timeout=POLL_SECONDS)
@@ -348,6 +320,10 @@ class TableStore:
                     self.counters["client_gone"] += 1
                     task.cancel()  # our shield on the shared task; the computation is the last waiter's call
                     raise ClientGone("the client disconnected while its table was computed")
+                if limit_seconds is not None and time.monotonic() - since > limit_seconds:
+                    overdue = True
+                    task.cancel()
+                    raise self._overdue(self.running.get(key), limit_seconds)
         except asyncio.CancelledError:
             task.cancel()
             raise
@@ -356,7 +332,8 @@ class TableStore:
                 left = self._waiters_add(key, -1)
             comp = self.running.get(key)
             if left <= 0 and comp is not None:
-                comp.cancel("every client waiting for it has gone")
+                comp.cancel(f"over its wall-clock limit of {limit_seconds:g} s" if overdue and comp.started is not None
+                            else "every client waiting for it has gone")
 
     def _waiters_add(self, key: str, n: int) -> int:  # with self._lock
         counts = self._waiters
@@ -368,6 +345,16 @@ class TableStore:
         if comp is not None:
             comp.waiters = max(0, left)
         return left
+
+    def _overdue(self, comp: Computation | None, limit_seconds: float) -> ServiceError:
+        """The 503 of a waiter that waited ``limit_seconds``: still queued (busy) or not finished."""
+        if comp is None or comp.started is None:
+            self.counters["queue_timeout"] += 1
+            return ServiceError(
+                503, "busy", f"waited {limit_seconds:g} s for a compute slot ({self.waiting} computations running "
+                             "or queued); try again later", headers={"Retry-After": "5"})
+        # counted as timed_out when the computation stops (it goes on if another waiter, a job, holds it)
+        return ServiceError(503, "time_limit", f"the computation did not finish within {limit_seconds:g} s")
 
     def progress_of(self, key: str) -> dict | None:
         comp = self.running.get(key)
@@ -392,7 +379,7 @@ class TableStore:
                 headers={"Retry-After": "5"},
             )
 
-    async def _compute(self, prep: Prepared, name: str, limit_seconds: float) -> bytes:
+    async def _compute(self, prep: Prepared, name: str, limit_seconds: float, lane: str = "sync") -> bytes:
         # a request that finished while we were scheduled (or a peer process) may have stored it
         payload = await self._cache_get(name, validator(MASTER, prep.key))
         if payload is not None:
@@ -413,13 +400,18 @@ class TableStore:
                 if payload is not None:  # stored by a peer between our look and the lock
                     return payload
                 loop = asyncio.get_running_loop()
-                return await loop.run_in_executor(self.compute_pool, self._compute_and_store, prep, name, comp)
+                return await loop.run_in_executor(self._pool(lane), self._compute_and_store, prep, name, comp)
             finally:
                 lock.release()
         except Cancelled as exc:
             raise self._cancelled(exc) from None
         finally:
             self._end(prep.key)
+
+    def _pool(self, lane: str) -> ThreadPoolExecutor:
+        if lane not in ("sync", "job"):
+            raise ValueError(f"lane must be 'sync' or 'job', got {lane!r}")
+        return self.job_pool if lane == "job" else self.compute_pool
 
     def _begin(self, key: str, name: str, limit_seconds: float) -> Computation:
         comp = Computation(name=name, limit_seconds=limit_seconds)
@@ -441,73 +433,92 @@ class TableStore:
         return ServiceError(503, "time_limit" if timed_out else "cancelled", f"the computation stopped: {exc.reason}",
                             headers={} if timed_out else {"Retry-After": "1"})
 
-    def _compute_and_store(self, prep: Prepared, name: str, comp: Computation) -> bytes:
+    @contextmanager
+    def _counted(self, comp: Computation, counter: str | None = None):
+        """The thread side of a computation: started (or dropped, if cancelled while queued), counted, timed."""
+        comp.start()
         with self._lock:
             self.computing += 1
         t0 = time.perf_counter()
-        ok = False
         try:
-            comp.progress(0, prep.texels)  # cancelled or out of time while queued: do not start
-            # the module global is looked up at call time: tests monkeypatch it
-            table = tabulate(prep.nspec, device=self.settings.device, workers=self.settings.workers,
-                             progress=comp.progress, **self.cluster())
-            ok = True
+            yield
         finally:
             with self._lock:
                 self.computing -= 1
                 self.computations += 1
                 self.compute_seconds += time.perf_counter() - t0
-                if not ok and comp.cancel_reason is None:
-                    self.counters["failed"] += 1
+                if counter is not None:
+                    self.counters[counter] += 1
+
+    async def _in_lane(self, name: str, limit: float, lane: str, work: Callable, *args):
+        """``work(comp, *args)`` in ``lane``'s pool as computation ``name``: admitted (or 503), listed, limited."""
+        self._admit()
+        comp = self._begin(name, name, limit)
+        try:
+            loop = asyncio.get_running_loop()
+            return await loop.run_in_executor(self._pool(lane), work, comp, *args)
+        except Cancelled as exc:
+            raise self._cancelled(exc) from None
+        finally:
+            self._end(name)
+
+    def _compute_and_store(self, prep: Prepared, name: str, comp: Computation) -> bytes:
+        t0 = time.perf_counter()
+        try:
+            with self._counted(comp):
+                comp.progress(0, prep.texels)
+                # the module global is looked up at call time: tests monkeypatch it
+                table = tabulate(prep.nspec, device=self.settings.device, workers=self.settings.workers,
+                                 progress=comp.progress, **self.cluster())
+        except Exception:
+            if comp.cancel_reason is None:
+                self.counters["failed"] += 1
+            raise
         payload = table.to_npz_bytes()
         self._store(name, payload)
         log.info("computed %s (%d texels) in %.2f s", name, prep.texels, time.perf_counter() - t0)
         return payload
 
     async def run_scene(self, name: str, plan: Callable[[Callable[[str], None]], bytes], client=None,
-                        limit_seconds: float | None = None) -> bytes:
+                        limit_seconds: float | None = None, lane: str = "sync") -> bytes:
         """Run ``plan(checkpoint)`` (a scene) through the same queue, slots, counters and limits.
 
         ``checkpoint(line)`` is the planner's log callback: it raises :class:`Cancelled` when the
         scene's waiters are gone or its time is up.
         """
+        limit = self.settings.max_compute_seconds if limit_seconds is None else limit_seconds
 
         async def produce() -> bytes:
             payload = await self._cache_get(name, validator("scene", name))
             if payload is not None:
                 return payload
-            self._admit()
-            limit = self.settings.max_compute_seconds if limit_seconds is None else limit_seconds
-            comp = self._begin(name, name, limit)
-            try:
-                loop = asyncio.get_running_loop()
-                return await loop.run_in_executor(self.compute_pool, self._scene_and_store, name, plan, comp)
-            except Cancelled as exc:
-                raise self._cancelled(exc) from None
-            finally:
-                self._end(name)
+            return await self._in_lane(name, limit, lane, self._scene_and_store, name, plan)
 
-        return await self.watch(name, self.flight.run(name, produce), client)
+        return await self.watch(name, self.flight.run(name, produce), client, limit)
 
-    def _scene_and_store(self, name: str, plan, comp: Computation) -> bytes:
-        with self._lock:
-            self.computing += 1
-        t0 = time.perf_counter()
+    async def run_call(self, label: str, fn: Callable, *args, client=None):
+        """``fn(*args)`` in the synchronous lane, through the tables' door: admitted or 503, seen in
+        ``/healthz``, dropped unstarted when its client leaves, its waiter bounded by
+        ``max_compute_seconds`` (a call cannot be stopped once it runs: keep ``fn`` bounded)."""
+        name = f"{label}-{os.urandom(8).hex()}"
+        limit = self.settings.max_compute_seconds
+        self.counters["checks"] += 1
+        return await self.watch(name, self._in_lane(name, limit, "sync", self._call, fn, args), client, limit)
+
+    def _call(self, comp: Computation, fn: Callable, args: tuple):
+        with self._counted(comp):
+            return fn(*args)
+
+    def _scene_and_store(self, comp: Computation, name: str, plan) -> bytes:
         steps = [0]
 
         def checkpoint(_line: str) -> None:
             steps[0] += 1
             comp.progress(steps[0], 0)
 
-        try:
+        with self._counted(comp, "scenes"):
             comp.progress(0, 0)
             payload = plan(checkpoint)
-        finally:
-            with self._lock:
-                self.computing -= 1
-                self.computations += 1
-                self.counters["scenes"] += 1
-                self.compute_seconds += time.perf_counter() - t0
         self._store(name, payload)
         return payload
 
@@ -547,7 +558,9 @@ class TableStore:
             "limits": {"max_cost_seconds": self.settings.max_cost_seconds,
                        "max_job_cost_seconds": self.settings.max_job_cost_seconds,
                        "max_compute_seconds": self.settings.max_compute_seconds,
-                       "job_max_seconds": self.settings.job_max_seconds},
+                       "job_max_seconds": self.settings.job_max_seconds,
+                       "max_concurrent": self.settings.max_concurrent,
+                       "max_concurrent_jobs": self.settings.max_concurrent_jobs},
             "cache": self.cache.summary(),
             "memory": self.memory.summary(),
         }
@@ -557,6 +570,7 @@ class TableStore:
             for comp in self.running.values():
                 comp.cancel("the service is shutting down")
         self.compute_pool.shutdown(wait=False, cancel_futures=True)
+        self.job_pool.shutdown(wait=False, cancel_futures=True)
         self.io_pool.shutdown(wait=False, cancel_futures=True)
         self.shutdown_cluster()
 

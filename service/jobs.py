@@ -195,8 +195,14 @@ class Jobs:
             if "tol" in body:
                 raise ServiceError(400, "invalid_body", "'tol' belongs to scene jobs (a spec has 'tolerance')",
                                    param="body.tol")
+            if not isinstance(body["spec"], dict):
+                raise ServiceError(400, "invalid_body", f"'spec' must be a JSON object, got {type(body['spec']).__name__}",
+                                   param="spec")
             prep = self.store.prepare(body["spec"], max_cost=self.settings.max_job_cost_seconds)
             return _job_id("table", prep.key), "table", {"spec": prep.nspec}, prep
+        if not isinstance(body["scene"], dict):
+            raise ServiceError(400, "invalid_body", f"'scene' must be a JSON object, got {type(body['scene']).__name__}",
+                               param="scene")
         tol = parse_tol(body.get("tol"), "tol")
         _parsed, name = parse_scene_request(body["scene"], tol)
         return _job_id("scene", name), "scene", {"scene": body["scene"], "tol": tol}, name
@@ -287,14 +293,14 @@ class Jobs:
         store = self.store
         if kind == "table":
             key = prepared.key
-            work = store.master(prepared, limit_seconds=self.settings.job_max_seconds)
+            work = store.master(prepared, limit_seconds=self.settings.job_max_seconds, lane="job")
         else:
             key = prepared
             settings = self.settings
             work = store.run_scene(prepared, lambda cp: scene_plan_bytes(request["scene"], request.get("tol"), settings, cp,
                                                                           max_cost=settings.max_job_cost_seconds,
                                                                           **store.cluster()),
-                                   limit_seconds=self.settings.job_max_seconds)
+                                   limit_seconds=self.settings.job_max_seconds, lane="job")
         task = asyncio.ensure_future(work)
         try:
             while True:

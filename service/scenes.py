@@ -96,6 +96,8 @@ def scene_plan_bytes(scene: dict, tol, settings, checkpoint=None, planner=None, 
 
 def parse_scene_request(scene, tol) -> tuple[dict, str]:
     """(parsed scene, cache entry name) of a scene request; 400 naming the parameter."""
+    if not isinstance(scene, dict):
+        raise SpecError("body", f"the body must be a scene, a JSON object with a 'materials' list; got {type(scene).__name__}")
     if not is_scene(scene):
         raise SpecError("materials", "the body must be a scene: a JSON object with a 'materials' list")
     parsed = parse_scene(scene)  # 400 before taking a compute slot

@@ -8,6 +8,8 @@ variable                       meaning                                     defau
 ``BSDF_TAB_MAX_TEXELS``        largest table served (more -> 413)          262144 (64^3)
 ``BSDF_TAB_MAX_BODY_BYTES``    largest POST body (more -> 413)             65536
 ``BSDF_TAB_MAX_CONCURRENT``    computations running at a time              1
+``BSDF_TAB_MAX_CONCURRENT_JOBS``  jobs running at a time, in a lane of     1
+                               their own (never in the slots above)
 ``BSDF_TAB_MAX_QUEUED``        distinct computations waiting (more -> 503)  32
 ``BSDF_TAB_WORKERS``           CPU threads of one computation              all cores
 ``BSDF_TAB_DEVICE``            Warp device (``cpu``, ``cuda:0``)           Warp's default
@@ -59,6 +61,7 @@ class Settings(BaseSettings):
     max_texels: int = Field(64**3, ge=1)
     max_body_bytes: int = Field(64 * 1024, ge=64)
     max_concurrent: int = Field(1, ge=1)
+    max_concurrent_jobs: int = Field(1, ge=1)
     max_queued: int = Field(32, ge=0)
     workers: int | None = Field(None, ge=1)
     device: str | None = None

@@ -11,12 +11,13 @@ a base64 PNG). The answer is the report of ``bsdf-tab check --json`` (``table``,
 
 Errors: an unreadable file -> 400 ``param: body``; a bad ``shape`` / ``array_values`` /
 ``axes`` / ``heatmap`` -> 400 naming it; an unknown parameter -> 400; a body over the limit
--> 413. The identification runs in the compute pool, off the event loop.
+-> 413. The identification runs in the synchronous compute lane (:meth:`TableStore.run_call`):
+admitted like a table (503 ``busy`` when the queue is full), listed in ``/healthz``, dropped
+unstarted when its client leaves.
 """
 
 from __future__ import annotations
 
-import asyncio
 import base64
 import tempfile
 from pathlib import Path
@@ -49,6 +50,8 @@ def _shape(text: str | None):
     if text is None:
         return None
     try:
+        if not text.isascii():  # int() reads other scripts' digits; the table routes do not
+            raise ValueError(text)
         shape = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
         raise _bad("shape", f"must be integers separated by commas (32,32 or 16,16,2), got {text[:40]!r}") from None
@@ -141,11 +144,10 @@ async def post_check(request: Request) -> JSONResponse:
     if heatmap_text not in ("0", "1", "true", "false"):
         raise _bad("heatmap", f"must be 0, 1, true or false, got {heatmap_text[:40]!r}")
     data = await _read_body(request)
-    store = store_of(request)
-    loop = asyncio.get_running_loop()
     array_name = extra.get("array_name") or None
-    if array_name is not None and not array_name.replace("_", "a").isalnum():
+    if array_name is not None and not (array_name.isascii() and array_name.replace("_", "a").isalnum()):
         raise _bad("array_name", f"must be an identifier (letters, digits, _), got {array_name[:40]!r}")
-    payload = await loop.run_in_executor(store.compute_pool, check_payload, data, extra.get("name", "lut"), shape,
-                                         array_values, axes, heatmap_text in ("1", "true"), array_name)
+    payload = await store_of(request).run_call("check", check_payload, data, extra.get("name", "lut"), shape,
+                                               array_values, axes, heatmap_text in ("1", "true"), array_name,
+                                               client=request.is_disconnected)
     return JSONResponse(payload, headers={"Cache-Control": "no-store"})

@@ -153,6 +153,9 @@ async def post_table(request: Request) -> Response:
     extra = only_params(request.query_params.multi_items(), ("format",))
     fmt = negotiate(extra.get("format"), accept_of(request))  # 406 before reading the body
     spec = await read_json_body(request)
+    if not isinstance(spec, dict):
+        raise ServiceError(400, "invalid_body", f"the body must be a spec, a JSON object; got {type(spec).__name__}",
+                           param="body")
     return await send_table(request, spec, fmt if "format" in extra else None)
 
 

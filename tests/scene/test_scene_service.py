@@ -31,6 +31,11 @@ def test_service_post_scenes(tmp_path):
         assert "E" in read_exr(tmp_path / name).channels
         bad = client.post("/scenes", params={"tol": "2e-3"}, json={"materials": [{"type": "x", "alpha": 0.1}]})
         assert bad.status_code == 400 and bad.json()["error"]["param"] == "materials[0].type"
+        for body in ([TINY], "x", None):  # not an object: the body is named, not one of its keys
+            r = client.post("/scenes", params={"tol": "2e-3"}, json=body)
+            assert r.status_code == 400 and r.json()["error"]["param"] == "body", r.text
+        r = client.post("/scenes", params={"tol": "2e-3"}, json={"materials": "x"})
+        assert r.status_code == 400 and r.json()["error"]["param"] == "materials"
         assert client.post("/scenes", params={"tol": "abc"}, json=TINY).status_code == 400
         assert client.post("/scenes", params={"bogus": "1"}, json=TINY).status_code == 400
         assert client.post("/scenes", json={"table": "albedo"}).status_code == 400

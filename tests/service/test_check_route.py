@@ -80,7 +80,8 @@ def test_3d_glass_table_and_its_axes(client):
 
 @pytest.mark.parametrize("query,param", [("array_values=int", "array_values"), ("axes=mu", "axes"),
                                          ("axes=a,b,c,d", "axes"), ("array_name=a%3Bb", "array_name"),
-                                         ("heatmap=maybe", "heatmap"), ("color=1", "color")])
+                                         ("heatmap=maybe", "heatmap"), ("color=1", "color"),
+                                         ("shape=%EF%BC%91,2", "shape"), ("array_name=%C3%A9", "array_name")])
 def test_bad_parameters(client, flipped_npy, query, param):
     err(client.post(f"/check?{query}", content=flipped_npy), 400, param)
 
@@ -90,3 +91,47 @@ def test_bad_bodies(client):
     err(client.post("/check", content=b"\x89PNG\r\n\x1a\nbroken"), 400, "body")
     big = b"0" * (MAX_LUT_BYTES + 1)
     err(client.post("/check", content=big), 413, "body")
+
+
+def test_checks_go_through_the_tables_door(tmp_path, flipped_npy, monkeypatch):
+    """The audit: abandoned /check requests ran unseen in the compute slot with no admission.
+    Now a check is admitted like a table (503 busy when the queue is full), listed in /healthz
+    while it runs, and counted."""
+    import asyncio
+    import threading
+
+    import httpx
+
+    import service.routes.check as check_route
+
+    real = check_route.check_payload
+    state = {"started": threading.Event(), "release": threading.Event(), "calls": 0}
+
+    def held(*args, **kwargs):
+        state["calls"] += 1
+        state["started"].set()
+        state["release"].wait(10)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(check_route, "check_payload", held)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
+
+    async def main():
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://svc") as c:
+            first = asyncio.create_task(c.post("/check", content=flipped_npy))
+            while not state["started"].is_set():
+                await asyncio.sleep(0.01)
+            health = (await c.get("/healthz")).json()
+            second = await c.post("/check", content=flipped_npy)
+            table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            state["release"].set()
+            return health, second, table, await first, (await c.get("/healthz")).json()
+
+    health, second, table, first, after = asyncio.run(main())
+    assert [(r["name"][:6], r["state"]) for r in health["running"]] == [("check-", "running")]
+    assert health["computing"] == 1
+    assert second.status_code == 503 and second.json()["error"]["code"] == "busy" and second.headers["retry-after"]
+    assert table.status_code == 503  # one door for tables and checks
+    assert first.status_code == 200 and first.json()["table"] == "dfg" and state["calls"] == 1
+    assert after["checks"] == 2 and after["computations"] == 1 and after["computing"] == 0 and after["running"] == []

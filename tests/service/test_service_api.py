@@ -286,7 +286,9 @@ def test_accept_not_acceptable(client):
         ({"axes": {}}, 400, "table"),
         ({"table": "albedo", "axes": {"mu": []}}, 400, "axes.mu"),
         ({"table": "albedo", "axes": {"mu": {"size": 64}, "alpha": {"size": 64}}}, 413, "axes"),
-        ([1, 2], 400, None),
+        ([1, 2], 400, "body"),
+        (None, 400, "body"),
+        ('"albedo"', 400, "body"),  # a JSON string
         ('{"table": "albedo", "axes": {"mu": [1' + "0" * 400 + "]}}", 400, None),  # int too big for a float
     ],
 )

@@ -175,3 +175,78 @@ def test_scenes_go_through_the_same_door(tmp_path, monkeypatch):
     assert table.status_code == 503  # one door for tables and scenes
     assert first.status_code == 200 and state["calls"] == 1
     assert after["computations"] == 1 and after["scenes"] == 1 and after["busy"] == 4 and after["computing"] == 0
+
+
+@pytest.fixture()
+def held_dfg(monkeypatch):
+    """tabulate that holds every dfg table until ``release`` (or 10 s) without a progress call, so
+    nothing can stop it early; other tables are computed as usual and recorded."""
+    real = service.compute.tabulate
+    state = {"held": threading.Event(), "release": threading.Event(), "tables": []}
+
+    def fake(spec, **kw):
+        state["tables"].append(spec["table"])
+        if spec["table"] == "dfg":
+            state["held"].set()
+            state["release"].wait(10)
+        return real(spec, **kw)
+
+    monkeypatch.setattr(service.compute, "tabulate", fake)
+    return state
+
+
+def test_a_running_job_never_holds_the_synchronous_slot(tmp_path, held_dfg):
+    """Jobs compute in a lane of their own: with one synchronous slot, a table is still answered
+    while a job runs (the audit: one allowed job stalled every synchronous request)."""
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_compute_seconds=5))
+
+    async def main():
+        async with _client(app) as c:
+            job = await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}}})
+            while not held_dfg["held"].is_set():
+                await asyncio.sleep(0.01)
+            t0 = time.monotonic()
+            table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            took = time.monotonic() - t0
+            health = (await c.get("/healthz")).json()
+            held_dfg["release"].set()
+            for _ in range(500):
+                status = (await c.get(f"/jobs/{job.json()['id']}")).json()["status"]
+                if status == "done":
+                    break
+                await asyncio.sleep(0.02)
+            return job, table, took, health, status
+
+    job, table, took, health, status = asyncio.run(main())
+    assert job.status_code == 202, job.text
+    assert table.status_code == 200 and took < 4.0, (table.status_code, took)
+    assert [r["name"].endswith(".npz") for r in health["running"]] == [True]  # the job's computation
+    assert health["limits"]["max_concurrent_jobs"] == 1 and status == "done"
+
+
+def test_a_request_queued_past_its_limit_is_busy_and_never_runs(tmp_path, held_dfg):
+    """A synchronous request whose computation is still queued when its limit passes gets 503
+    busy (Retry-After) at the limit, not a time_limit once the slot frees; its computation is
+    dropped unstarted."""
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_compute_seconds=1))
+
+    async def main():
+        async with _client(app) as c:
+            first = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
+            while not held_dfg["held"].is_set():
+                await asyncio.sleep(0.01)
+            t0 = time.monotonic()
+            queued = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            took = time.monotonic() - t0
+            held_dfg["release"].set()
+            held = await first
+            await asyncio.sleep(0.3)  # the slot frees; the queued computation is dropped at its start
+            return queued, took, held, (await c.get("/healthz")).json()
+
+    queued, took, held, health = asyncio.run(main())
+    assert queued.status_code == 503 and queued.json()["error"]["code"] == "busy", queued.text
+    assert queued.headers["retry-after"] and "compute slot" in queued.json()["error"]["message"]
+    assert 0.9 < took < 3.0, took
+    assert held.status_code == 503 and held.json()["error"]["code"] == "time_limit"  # it ran past its limit
+    assert held_dfg["tables"] == ["dfg"]  # the queued albedo never ran
+    assert health["queue_timeout"] == 1 and health["computing"] == 0 and health["running"] == []
