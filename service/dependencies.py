@@ -5,6 +5,7 @@ Routers never import each other; everything two of them need lives here.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 
@@ -14,7 +15,7 @@ from starlette.requests import ClientDisconnect
 from .compute import TableStore
 from .errors import ClientGone, ServiceError
 
-__all__ = ["ClientGone", "accept_of", "etag_matches", "jobs_of", "read_json_body", "store_of"]
+__all__ = ["ClientGone", "accept_of", "etag_matches", "jobs_of", "read_body", "read_json_body", "store_of"]
 
 log = logging.getLogger("bsdf_tab.service")
 
@@ -59,24 +60,38 @@ def _no_duplicates(pairs: list) -> dict:
     return seen
 
 
-async def read_json_body(request: Request):
-    """The request body as JSON: at most ``max_body_bytes`` (413), valid JSON (400), no repeated key (400)."""
-    limit = request.app.state.settings.max_body_bytes
+async def read_body(request: Request, limit: int, what: str = "the body") -> bytes:
+    """The raw body: at most ``limit`` bytes (413), arriving within ``body_timeout`` seconds (408).
+
+    uvicorn bounds the headers (``header_timeout``) but not the body: a client that declares
+    100 bytes and sends one would hold the request (and its connection) forever.
+    """
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > limit:
-        raise ServiceError(413, "body_too_large", f"the body has {declared} bytes; at most {limit}", param="body",
-                           allowed={"max_body_bytes": limit})
+        raise ServiceError(413, "body_too_large", f"{what} has {declared} bytes; at most {limit}", param="body",
+                           allowed={"max_bytes": limit})
+    timeout = request.app.state.settings.body_timeout
     chunks, size = [], 0
     try:
-        async for chunk in request.stream():
-            size += len(chunk)
-            if size > limit:
-                raise ServiceError(413, "body_too_large", f"the body is larger than {limit} bytes", param="body",
-                                   allowed={"max_body_bytes": limit})
-            chunks.append(chunk)
+        async with asyncio.timeout(timeout):
+            async for chunk in request.stream():
+                size += len(chunk)
+                if size > limit:
+                    raise ServiceError(413, "body_too_large", f"{what} is larger than {limit} bytes", param="body",
+                                       allowed={"max_bytes": limit})
+                chunks.append(chunk)
+    except TimeoutError:
+        raise ServiceError(408, "body_timeout", f"{what} did not arrive within {timeout:g} s ({size} bytes came)",
+                           param="body", headers={"Connection": "close"}) from None
     except ClientDisconnect:
         raise ClientGone(f"{request.method} {request.url.path}: the client disconnected mid-body") from None
-    raw = b"".join(chunks)
+    return b"".join(chunks)
+
+
+async def read_json_body(request: Request):
+    """The request body as JSON: at most ``max_body_bytes`` (413), in time (408), valid JSON (400),
+    no repeated key (400)."""
+    raw = await read_body(request, request.app.state.settings.max_body_bytes)
     if not raw.strip():
         raise ServiceError(400, "invalid_body", "the body must be a JSON object, got an empty body", param="body")
     try:

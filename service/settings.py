@@ -25,6 +25,7 @@ variable                       meaning                                     defau
 ``BSDF_TAB_JOB_MAX_SECONDS``   wall-clock limit of one job                 86400
 ``BSDF_TAB_MEMORY_CACHE_BYTES``  in-memory LRU of served entries           64 MiB
 ``BSDF_TAB_HEADER_TIMEOUT``    seconds to receive a request's headers      10
+``BSDF_TAB_BODY_TIMEOUT``      seconds to receive a request's body (408)   30
 ``BSDF_TAB_SCHEDULER``         a Dask scheduler (``tcp://host:8786`` or     in-process threads
                                ``local:N``): tables, scenes and jobs are
                                computed there (503 naming it if it is
@@ -74,4 +75,5 @@ class Settings(BaseSettings):
     job_max_seconds: float = Field(86400.0, gt=0)
     memory_cache_bytes: int = Field(64 << 20, ge=0)
     header_timeout: float = Field(10.0, gt=0)
+    body_timeout: float = Field(30.0, gt=0)
     scheduler: str | None = None  # BSDF_TAB_SCHEDULER: computations go to this Dask cluster

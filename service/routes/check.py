@@ -30,7 +30,7 @@ from bsdf_tab.errors import SpecError
 
 from ..errors import ServiceError
 from ..params import only_params
-from ..dependencies import store_of
+from ..dependencies import read_body, store_of
 
 __all__ = ["MAX_LUT_BYTES", "PARAMS", "router"]
 
@@ -68,24 +68,6 @@ def _axes(text: str | None):
         raise _bad("axes", f"must be 1 to 3 axis names, the file's first axis first (mu,roughness or "
                            f"ior,mu,roughness), got {text[:40]!r}")
     return names
-
-
-async def _read_body(request: Request) -> bytes:
-    declared = request.headers.get("content-length")
-    if declared and declared.isdigit() and int(declared) > MAX_LUT_BYTES:
-        raise ServiceError(413, "body_too_large", f"the LUT has {declared} bytes; at most {MAX_LUT_BYTES}",
-                           param="body", allowed={"max_bytes": MAX_LUT_BYTES})
-    chunks, size = [], 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > MAX_LUT_BYTES:
-            raise ServiceError(413, "body_too_large", f"the LUT is larger than {MAX_LUT_BYTES} bytes", param="body",
-                               allowed={"max_bytes": MAX_LUT_BYTES})
-        chunks.append(chunk)
-    data = b"".join(chunks)
-    if not data:
-        raise ServiceError(400, "invalid_body", "the body must be the LUT file's bytes, got an empty body", param="body")
-    return data
 
 
 def check_payload(data: bytes, name: str, shape, array_values: str, axes, heatmap: bool,
@@ -143,7 +125,9 @@ async def post_check(request: Request) -> JSONResponse:
     heatmap_text = extra.get("heatmap", "0").lower()
     if heatmap_text not in ("0", "1", "true", "false"):
         raise _bad("heatmap", f"must be 0, 1, true or false, got {heatmap_text[:40]!r}")
-    data = await _read_body(request)
+    data = await read_body(request, MAX_LUT_BYTES, "the LUT")
+    if not data:
+        raise ServiceError(400, "invalid_body", "the body must be the LUT file's bytes, got an empty body", param="body")
     array_name = extra.get("array_name") or None
     if array_name is not None and not (array_name.isascii() and array_name.replace("_", "a").isalnum()):
         raise _bad("array_name", f"must be an identifier (letters, digits, _), got {array_name[:40]!r}")

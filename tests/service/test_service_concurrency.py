@@ -250,3 +250,26 @@ def test_a_request_queued_past_its_limit_is_busy_and_never_runs(tmp_path, held_d
     assert held.status_code == 503 and held.json()["error"]["code"] == "time_limit"  # it ran past its limit
     assert held_dfg["tables"] == ["dfg"]  # the queued albedo never ran
     assert health["queue_timeout"] == 1 and health["computing"] == 0 and health["running"] == []
+
+
+@pytest.mark.parametrize("path", ["/tables", "/check", "/jobs", "/scenes?tol=1e-3"])
+def test_a_body_that_stalls_is_408_at_the_body_timeout(tmp_path, path):
+    """The audit: a client that declared a body and sent one byte held its request forever
+    (uvicorn bounds the headers, not the body)."""
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, body_timeout=0.3))
+
+    async def stalled():
+        yield b"{"
+        await asyncio.sleep(5)  # never reached: the service answers first
+        yield b"}"
+
+    async def main():
+        async with _client(app) as c:
+            t0 = time.monotonic()
+            r = await c.post(path, content=stalled(), headers={"content-type": "application/json"})
+            return r, time.monotonic() - t0
+
+    r, took = asyncio.run(main())
+    assert r.status_code == 408 and r.json()["error"]["param"] == "body", r.text
+    assert "within 0.3 s" in r.json()["error"]["message"] and r.headers["connection"] == "close"
+    assert took < 2.0, took
