@@ -18,7 +18,7 @@ from bsdf_tab import __version__
 from bsdf_tab.api import quiet_warp
 
 from .compute import TableStore
-from .errors import install_handlers
+from .errors import ServiceError, install_handlers
 from .hotpath import HotPath
 from .jobs import Jobs
 from .routes import jobs as jobs_routes
@@ -46,6 +46,11 @@ async def _warm_in_turns(store: TableStore) -> None:
     loop = asyncio.get_running_loop()
     for kind in warm_kinds():
         await loop.run_in_executor(store.compute_pool, warm_kind, kind, store.settings.device)
+    # the landing page's table (GET / without a query): a cache hit from now on, never queued behind work
+    try:
+        await store.variant(store.prepare({"table": pages.DEFAULT_TABLE}), "info")
+    except ServiceError as exc:  # limits below the default table: the page fits one when asked
+        log.info("landing page table not prepared: %s", exc.message)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

@@ -284,3 +284,30 @@ def test_deferred_kind_functions_are_the_modules_functions():
     deferred, before, same, ltc_channels, sheen_choices = got["out"]
     assert deferred == ["albedo_aniso", "bsdf", "ltc", "sheen_albedo", "sheen_albedo_avg"], got
     assert before == [] and all(same) and ltc_channels and sheen_choices, got
+
+
+def test_warmup_prepares_the_landing_page_table(tmp_path, monkeypatch):
+    """The audit: GET / without a query computed its default table in the compute queue, so the
+    landing page waited behind any running computation. The warm-up now computes it once; the
+    page is then a cache hit."""
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    import service.warmup as warmup
+    from service.app import create_app
+    from service.settings import Settings
+
+    monkeypatch.setattr(warmup, "warm_kind", lambda kind, device=None, strict=False: True)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=True, workers=1))
+    with TestClient(app) as client:
+        store = app.state.store
+        prep = store.prepare({"table": "albedo"})
+        for _ in range(400):  # bounded: 20 s
+            if store.cached(prep, "info") is not None:
+                break
+            time.sleep(0.05)
+        assert store.cached(prep, "info") is not None
+        computed = store.computations
+        page = client.get("/")
+        assert page.status_code == 200 and "albedo: mu 32 x alpha 32" in page.text
+        assert store.computations == computed == 1  # the page computed nothing

@@ -41,6 +41,10 @@ router = APIRouter(tags=["pages"])
 _TEMPLATE = PAGE
 DEFAULT_TABLE = "albedo"
 PAGE_EXTRA = ("table", "channel", "slice", "slice_axis")
+#: a kind whose default table is over this service's limits is shown at the first of these sizes per
+#: axis that fits them and costs at most PAGE_COST_SECONDS predicted core-seconds (a page is a glance)
+PAGE_SIZES = (16, 8, 4, 2)
+PAGE_COST_SECONDS = 4.0
 
 
 def _select(name: str, options, current: str | None, blank: str | None = None, attrs: str = "") -> str:
@@ -209,7 +213,12 @@ async def index(request: Request) -> HTMLResponse:
     q = dict(items)
     kind = q.get("table", DEFAULT_TABLE)
     status = 200
-    if "job" in q:  # a job's progress, refreshed by the browser until it is finished
+    repeated = sorted({k for k, _ in items if sum(1 for x, _ in items if x == k) > 1})
+    if repeated:  # which one was meant is a guess (the API routes refuse it too)
+        result = _error_box(ServiceError(400, "invalid_parameter", f"{repeated[0][:60]!r} is given more than once",
+                                         param=repeated[0][:60]))
+        kind, status = kind if kind in TABLE_KINDS else DEFAULT_TABLE, 400
+    elif "job" in q:  # a job's progress, refreshed by the browser until it is finished
         try:
             job = await jobs_of(request).view(q["job"])
             result = _job_box(job)
@@ -246,10 +255,35 @@ async def _render_result(request: Request, kind: str, items: list[tuple[str, str
     spec, _ = spec_from_query(kind, spec_items)
     extra = {k: v for k, v in items if k in PAGE_EXTRA}
     store = store_of(request)
-    prep = store.prepare(spec)
+    note = ""
+    try:
+        prep = store.prepare(spec)
+    except ServiceError as exc:  # the catalog links to every kind: fit a default table to the limits
+        prep, spec_items, note = _fitted(store, kind, spec_items, exc)
     check_preview(prep.axes, channel_names(kind, errors=True), extra.get("channel"), extra.get("slice_axis"),
                   extra.get("slice"))
     info = json.loads(await store.variant(prep, "info"))
     query = urlencode(spec_items)
     preview_query = urlencode(spec_items + [(k, extra[k]) for k in ("channel", "slice", "slice_axis") if k in extra])
-    return _result(kind, query, preview_query, info)
+    return note + _result(kind, query, preview_query, info)
+
+
+def _fitted(store, kind: str, spec_items: list, exc: ServiceError):
+    """(prepared, items, note) of ``kind``'s table at the first of :data:`PAGE_SIZES` that fits this
+    service's limits, where ``exc`` refused the default table (413) and no axis was given; else ``exc``."""
+    axes = _axis_names_for(kind, dict(spec_items))
+    if exc.status != 413 or any(k == a or k.startswith(f"{a}_") for k, _ in spec_items for a in axes):
+        raise exc
+    for n in PAGE_SIZES:
+        items = spec_items + [(f"{a}_size", str(n)) for a in axes]
+        try:
+            prep = store.prepare(spec_from_query(kind, items)[0], max_cost=PAGE_COST_SECONDS)
+        except ServiceError as again:
+            if again.status != 413:
+                raise
+            continue
+        note = (f'<section class="note" id="fitted"><p>The default {escape(kind)} table is over this service\'s '
+                f"limits ({escape(exc.message)}); shown here at {n} nodes per axis. Ask for more in the form, or "
+                "as a job (POST /jobs).</p></section>")
+        return prep, items, note
+    raise exc

@@ -222,8 +222,15 @@ def test_page(client):
     bad = client.get("/?table=albedo&mu=0.5,0.2")
     assert bad.status_code == 400 and 'id="error"' in bad.text and "strictly increasing" in bad.text
     assert client.get("/?table=nope").status_code == 404
-    big = client.get("/?table=albedo")  # default 32 x 32 > max_texels
-    assert big.status_code == 413 and "texels" in big.text
+    # the catalog links to every kind: a default table over the limits (32 x 32 > 64 texels) is
+    # shown at the first page size that fits (8 x 8), and the page says so
+    fitted = client.get("/?table=albedo")
+    assert fitted.status_code == 200 and 'id="fitted"' in fitted.text and "at 8 nodes per axis" in fitted.text
+    assert "albedo: mu 8 x alpha 8" in fitted.text and "mu_size=8&amp;alpha_size=8" in fitted.text
+    big = client.get("/?table=albedo&mu_size=32&alpha_size=32")  # asked for: refused, not shrunk
+    assert big.status_code == 413 and "texels" in big.text and 'id="fitted"' not in big.text
+    twice = client.get("/?table=albedo&table=dfg")  # the API routes refuse repeats; so does the page
+    assert twice.status_code == 400 and "given more than once" in twice.text
 
 
 # ------------------------------------------------------------------ errors
