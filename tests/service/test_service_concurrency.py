@@ -20,21 +20,35 @@ def _client(app):
     return httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://svc")
 
 
-@pytest.fixture()
-def slow_tabulate(monkeypatch):
-    """tabulate that counts its calls and holds each one until ``release`` is set (or 10 s)."""
+def _hold(monkeypatch, which=lambda spec: True) -> dict:
+    """tabulate that records its calls and holds those ``which`` selects until ``release`` (or 10 s),
+    without a progress call, so nothing can stop them early."""
     real = service.compute.tabulate
-    state = {"calls": 0, "threads": set(), "release": threading.Event(), "started": threading.Event()}
+    state = {"calls": 0, "threads": set(), "tables": [], "release": threading.Event(), "started": threading.Event()}
 
-    def slow(spec, **kw):
+    def held(spec, **kw):
         state["calls"] += 1
         state["threads"].add(threading.current_thread().name)
-        state["started"].set()
-        state["release"].wait(10)
+        state["tables"].append(spec["table"])
+        if which(spec):
+            state["started"].set()
+            state["release"].wait(10)
         return real(spec, **kw)
 
-    monkeypatch.setattr(service.compute, "tabulate", slow)
+    monkeypatch.setattr(service.compute, "tabulate", held)
     return state
+
+
+@pytest.fixture()
+def slow_tabulate(monkeypatch):
+    """Every computation held until ``release``."""
+    return _hold(monkeypatch)
+
+
+@pytest.fixture()
+def held_dfg(monkeypatch):
+    """dfg tables held until ``release``; the others computed as usual."""
+    return _hold(monkeypatch, lambda spec: spec["table"] == "dfg")
 
 
 def test_simultaneous_requests_compute_once(tmp_path, slow_tabulate):
@@ -177,24 +191,6 @@ def test_scenes_go_through_the_same_door(tmp_path, monkeypatch):
     assert after["computations"] == 1 and after["scenes"] == 1 and after["busy"] == 4 and after["computing"] == 0
 
 
-@pytest.fixture()
-def held_dfg(monkeypatch):
-    """tabulate that holds every dfg table until ``release`` (or 10 s) without a progress call, so
-    nothing can stop it early; other tables are computed as usual and recorded."""
-    real = service.compute.tabulate
-    state = {"held": threading.Event(), "release": threading.Event(), "tables": []}
-
-    def fake(spec, **kw):
-        state["tables"].append(spec["table"])
-        if spec["table"] == "dfg":
-            state["held"].set()
-            state["release"].wait(10)
-        return real(spec, **kw)
-
-    monkeypatch.setattr(service.compute, "tabulate", fake)
-    return state
-
-
 def test_a_running_job_never_holds_the_synchronous_slot(tmp_path, held_dfg):
     """Jobs compute in a lane of their own: with one synchronous slot, a table is still answered
     while a job runs (the audit: one allowed job stalled every synchronous request)."""
@@ -203,7 +199,7 @@ def test_a_running_job_never_holds_the_synchronous_slot(tmp_path, held_dfg):
     async def main():
         async with _client(app) as c:
             job = await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}}})
-            while not held_dfg["held"].is_set():
+            while not held_dfg["started"].is_set():
                 await asyncio.sleep(0.01)
             t0 = time.monotonic()
             table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
@@ -233,7 +229,7 @@ def test_a_request_queued_past_its_limit_is_busy_and_never_runs(tmp_path, held_d
     async def main():
         async with _client(app) as c:
             first = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
-            while not held_dfg["held"].is_set():
+            while not held_dfg["started"].is_set():
                 await asyncio.sleep(0.01)
             t0 = time.monotonic()
             queued = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
