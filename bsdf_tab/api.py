@@ -14,13 +14,14 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from .errors import NonFiniteTableError
 from .integrate.runtime import resolve_device
 from .spec import normalize_spec, resolve_axes
 from .table import Table
 from .tables import KINDS, Context
 from .version import __version__
 
-__all__ = ["BlockStream", "METHOD_TEXT", "conventions", "iter_blocks", "quiet_warp", "streams",
+__all__ = ["BlockStream", "METHOD_TEXT", "check_finite", "conventions", "iter_blocks", "quiet_warp", "streams",
            "table_meta", "tabulate", "tabulate_many"]
 
 ProgressArg = bool | Callable[[int, int], None]
@@ -33,10 +34,12 @@ _SHADOWING_TEXT = {
 }
 #: Method name -> the description recorded in every table's metadata.
 METHOD_TEXT = {
-    "adaptive": "nested adaptive Gauss-Kronrod (G7-K15) over micro-normal space, split at the "
-    "closed-form horizon / critical-angle curves; error = sum over accepted intervals of "
-    "QUADPACK's rescaled |K15 - G7| (resasc * min(1, (200 |K15 - G7| / resasc)^1.5)) plus "
-    "propagated inner errors",
+    "adaptive": "nested adaptive Gauss-Kronrod (G7-K15, staged: G7 first where its estimate "
+    "allows) over micro-normal space, theta_m outer and phi inner, split at the closed-form "
+    "horizon, i.m = 0, critical-angle and transmission-horizon curves; error = sum over accepted "
+    "outer intervals of their estimates (QUADPACK's rescaled |K15 - G7| with a Legendre-tail "
+    "floor, or a safety factor on the staged rules' differences) plus twice the inner estimates "
+    "plus a rigorous mass bound of any D tail left out (docs/methods.md)",
     "point": "float64 point evaluation of the BSDF (Walter eqs. 20 and 21); error = rounding bound",
     "gauss_kronrod": "G7-K15 over the half vector, split at the closed-form horizon; error = sum of |K15 - G7| "
     "(the sheen tables' own kernel, bsdf_tab/tables/sheen.py)",
@@ -192,7 +195,37 @@ def tabulate(
     return _table(nspec, axes, channels)
 
 
+def check_finite(channels: dict, what: str = "table") -> None:
+    """Raise :class:`~bsdf_tab.errors.NonFiniteTableError` if a computed channel is not finite.
+
+    The last guard before a table reaches a caller or a writer: a value channel must be finite
+    everywhere and an error channel must not be NaN (an infinite error is an honest "did not
+    converge"). A spec the kernels cannot evaluate is refused by :func:`normalize_spec`; a NaN
+    here is a bug, so it is an internal error rather than a silently wrong table.
+
+    Parameters
+    ----------
+    channels : dict
+        Channel name -> array (a whole table or a block of one).
+    what : str
+        What the message names (``"table albedo"``).
+
+    Raises
+    ------
+    NonFiniteTableError
+        Naming the channel and how many of its texels are not finite.
+    """
+    for name, values in channels.items():
+        arr = np.asarray(values)
+        bad = np.isnan(arr) if name.endswith("_err") else ~np.isfinite(arr)
+        if bad.any():
+            raise NonFiniteTableError(
+                f"{what}: channel {name} has {int(bad.sum())} of {arr.size} texels "
+                f"{'NaN' if name.endswith('_err') else 'NaN or infinite'} (a bug: please report it)")
+
+
 def _table(nspec: dict, axes: dict, channels: dict) -> Table:
+    check_finite(channels, f"table {nspec['table']}")  # never a table with NaN values
     table = Table(axes=axes, channels=channels, meta={})
     table.meta = table_meta(nspec, table.max_error())
     return table
@@ -265,6 +298,7 @@ class BlockStream:
 
     def __iter__(self):
         for start, end, channels in self._blocks:
+            check_finite(channels, f"table {self.nspec['table']}")  # before a streaming writer sees the block
             for name, values in channels.items():
                 if name.endswith("_err"):
                     block_max = float(np.max(values)) if values.size else 0.0

@@ -136,13 +136,15 @@ def _spaced(axis: dict) -> np.ndarray:
     return x
 
 
-def _check_resolved(name: str, x: np.ndarray, clamped: bool) -> None:
+def _check_resolved(name: str, x: np.ndarray, clamped: bool, rng: list | None = None) -> None:
     param = f"axes.{name}"
     lo, hi, lo_inclusive = AXIS_DOMAINS[name]
     below = x < lo if lo_inclusive else x <= lo
     if below.any() or (x > hi).any():
         bad = float(x[below | (x > hi)][0])
         interval = f"{'[' if lo_inclusive else '('}{lo:g}, {hi:g}]"
+        if rng is not None:  # a resolution's nodes: its range is what was given (the service's A_min, A_max)
+            raise SpecError(f"{param}.range", f"must keep the nodes in {interval}, got {list(rng)!r} (a node at {bad!r})")
         raise SpecError(param, f"values must be in {interval}, got {bad!r}")
     steps = np.diff(x)
     if (steps <= 0).any():
@@ -179,7 +181,7 @@ def resolve_axis(name: str, axis: dict) -> np.ndarray:
         x = np.asarray(axis["values"], dtype=np.float64)
     else:
         x = _spaced(axis)
-    _check_resolved(name, x, clamped=axis.get("clamp") is not None)
+    _check_resolved(name, x, clamped=axis.get("clamp") is not None, rng=axis.get("range"))
     return x
 
 

@@ -8,7 +8,7 @@ Python callers can all point at the exact place to fix.
 
 from __future__ import annotations
 
-__all__ = ["SpecError", "TexelLimitError"]
+__all__ = ["NonFiniteTableError", "SpecError", "TexelLimitError"]
 
 
 class SpecError(ValueError):
@@ -56,3 +56,11 @@ class TexelLimitError(SpecError):
 
     def __reduce__(self):
         return (type(self), (self.param, self.message, self.limit))
+
+
+class NonFiniteTableError(RuntimeError):
+    """A computed table holds NaN or infinite values: an internal error, never bad input.
+
+    :mod:`bsdf_tab.api` raises it instead of returning (or streaming to a writer) such a
+    table; the CLI reports it as an internal error (exit code 1), the service as a 500.
+    """

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from . import jsontext
 from .errors import SpecError
 from .integrate import METHODS as INTEGRATORS
 from .model.distribution import DISTRIBUTIONS as MODEL_DISTRIBUTIONS
@@ -136,7 +137,7 @@ for _kind, _keys in KIND_OPTIONS.items():  # a declaration error is the catalog'
 def _parse(spec: dict | str) -> dict:
     if isinstance(spec, (str, bytes, bytearray)):
         try:
-            spec = json.loads(spec)
+            spec = jsontext.loads(spec)  # a repeated key is a SpecError naming it
         except json.JSONDecodeError as exc:
             raise SpecError(None, f"invalid JSON: {exc}") from None
     if not isinstance(spec, dict):
@@ -173,6 +174,15 @@ def _fresnel_from_axis(value: dict, ftype: str, kind: str) -> dict:
     return {"type": "dielectric"}
 
 
+#: Largest ``fresnel.eta`` of a dielectric Fresnel: the eta axis' bound (:data:`AXIS_DOMAINS`).
+MAX_DIELECTRIC_ETA = AXIS_DOMAINS["eta"][1]
+#: Largest ``fresnel.eta`` and ``fresnel.k`` of a conductor (complex IOR eta + i k). Metals have
+#: eta, k < 100 from the UV to the far infrared; within 1000 the exact Fresnel's intermediate
+#: eta^2 k^2 stays far inside float32 and float64 range (its float64 value agrees with a 50-digit
+#: evaluation to 1e-11; beyond ~1e77 the float64 kernel overflows to NaN).
+MAX_CONDUCTOR_IOR = 1000.0
+
+
 def _fresnel_params(value: dict, ftype: str) -> dict:
     out: dict[str, Any] = {"type": ftype}
     for name in FRESNEL_TYPES[ftype]:
@@ -186,6 +196,12 @@ def _fresnel_params(value: dict, ftype: str) -> dict:
         raise SpecError("fresnel.eta", f"must be > 0, got {out['eta']!r}")
     if "k" in out and not out["k"] >= 0.0:
         raise SpecError("fresnel.k", f"must be >= 0, got {out['k']!r}")
+    # bounded above: a huge IOR overflows the Fresnel kernels (NaN texels), and no material has one
+    eta_max = MAX_DIELECTRIC_ETA if ftype == "dielectric" else MAX_CONDUCTOR_IOR
+    if "eta" in out and out["eta"] > eta_max:
+        raise SpecError("fresnel.eta", f"must be <= {eta_max:g} for fresnel type {ftype}, got {out['eta']!r}")
+    if "k" in out and out["k"] > MAX_CONDUCTOR_IOR:
+        raise SpecError("fresnel.k", f"must be <= {MAX_CONDUCTOR_IOR:g}, got {out['k']!r}")
     return out
 
 

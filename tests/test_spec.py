@@ -405,3 +405,16 @@ def test_kind_keys_one_generic_path(monkeypatch):
     with pytest.raises(SpecError) as info:
         spec_mod.normalize_spec({"table": "albedo", "weave": "plain"})
     assert info.value.param == "weave" and "fake_kind" in str(info.value)
+
+
+@pytest.mark.parametrize("axis, param", [
+    ({"size": 4, "range": [0.0, 2.0]}, "axes.mu.range"),  # a resolution: its range is what was given
+    ({"size": 3, "range": [-1.0, 1.0]}, "axes.mu.range"),
+    ([0.5, 2.0], "axes.mu"),  # explicit values: the values
+])
+def test_nodes_outside_the_domain_name_what_was_given(axis, param):
+    with pytest.raises(SpecError) as info:
+        resolve_axes(normalize_spec({"table": "albedo", "axes": {"mu": axis}}))
+    assert info.value.param == param
+    if param.endswith("range"):
+        assert repr(axis["range"]) in info.value.message and "[0, 1]" in info.value.message

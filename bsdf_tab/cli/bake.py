@@ -23,7 +23,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import CliError, check_workers, load_spec_file, output_folder, quiet_warp, summary
+from .common import (
+    CliError,
+    check_device,
+    check_texels,
+    check_workers,
+    load_spec_file,
+    output_folder,
+    quiet_warp,
+    refuse_file_name,
+    summary,
+)
 from .many import (
     Job,
     add_cluster_arguments,
@@ -97,6 +107,10 @@ def run(args: argparse.Namespace) -> int:
             raise CliError("--precision, --store-tol and --emit apply to a spec file or --preset, not a scene")
         if args.resume:
             raise CliError("--resume applies to a spec file, --preset, a library or the default set")
+        if args.max_seconds is not None:  # the planner's tabulations are not predicted by the cost model
+            raise CliError("--max-seconds applies to a spec file, --preset, a library or the default set, "
+                           "not a scene (its planning cost is not predicted)")
+        refuse_file_name(args.output, "a scene bake (its tables and manifest.json)")
         return bake_scene(args)
     _check_storage_options(args)
     if args.preset is not None:
@@ -135,9 +149,14 @@ def _bake_one(args: argparse.Namespace) -> int:
     if args.resume and out.exists():
         print(f"{out}: exists, skipped (--resume)")
         return 0
+    from .. import api
+
+    if not (io.can_stream(fmt) and api.streams(spec)):  # a streamed bake is computed in blocks
+        check_texels(spec, str(spec_path))
     check_cost(args, [spec])
     quiet_warp(args)
     scheduler = scheduler_of(args)
+    check_device(args, scheduler)
     client, owned = (None, False)
     if scheduler is not None:
         from .many import connect_cluster
@@ -255,7 +274,9 @@ def _emit(table, out: Path, langs: list[str]) -> None:
 
 def _write(table, out: Path, fmt: str) -> None:
     from .. import io
+    from ..api import check_finite
 
+    check_finite(table.channels, f"output {out}")  # the last guard: never a file with NaN values
     try:
         io.write(table, out, fmt)
     except FileNotFoundError:

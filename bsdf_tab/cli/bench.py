@@ -128,3 +128,25 @@ def run(args: argparse.Namespace) -> int:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except RuntimeError as exc:  # e.g. the reference is not importable
         raise CliError(str(exc)) from None
+    except ValueError as exc:
+        if not _option_error(exc, script):  # a ValueError deeper down is a bug: an internal error
+            raise
+        raise BenchOptionError(str(exc)) from None
+
+
+class BenchOptionError(CliError, ValueError):
+    """A benchmark's bad option: one line, exit 2 (a :class:`CliError`), and still the
+    ValueError the benchmarks' ``main`` documents for callers of :func:`run`."""
+
+
+def _option_error(exc: ValueError, script: Path) -> bool:
+    """Whether ``exc`` was raised by the benchmark's own option checks: the benchmarks' contract
+    is that ``main`` (or ``main_from_args``) of a ``bench/`` script raises ValueError for a bad
+    option, so the innermost frame is such a function in ``bench/``."""
+    tb = exc.__traceback__
+    if tb is None:
+        return False
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    code = tb.tb_frame.f_code
+    return Path(code.co_filename).resolve().parent == script.resolve().parent and code.co_name.startswith("main")

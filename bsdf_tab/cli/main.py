@@ -1,7 +1,9 @@
 """``bsdf-tab``: the parser built from the registered subcommands, and the error policy.
 
 Errors are one line on stderr, ``bsdf-tab: error: <message>``, exit code 2 (1 for unexpected
-internal errors; ``--debug`` shows their traceback); Ctrl-C exits with 130.
+internal errors; ``--debug`` shows their traceback); Ctrl-C exits with 130. Bad input is a
+:class:`~.common.CliError` or a :class:`~bsdf_tab.errors.SpecError` (exit 2); any other exception,
+a ``ValueError`` included, is an internal error (exit 1), so ``--debug`` can show its traceback.
 
 Start-up: building the parser imports no table code (the subcommand modules import the spec,
 the catalog and Warp inside their handlers). Before a handler runs, the modules it names in
@@ -20,7 +22,7 @@ from typing import Callable
 
 from ..errors import SpecError
 from . import bake, bench, check, info, plan, presets
-from .common import PROG, CliError
+from .common import PROG, CliError, OneLineParser
 
 #: Subcommand name -> (help text, configure(parser), handler(args) -> int).
 COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]] = {}
@@ -106,7 +108,7 @@ def build_parser(only=_EVERY) -> argparse.ArgumentParser:
     ``only`` skips the entry-point scan too (plugins never replace a built-in command)."""
     if only is _EVERY or only not in COMMANDS:
         _load_plugins()
-    parser = argparse.ArgumentParser(prog=PROG, description="Microfacet BSDF lookup tables with error estimates.")
+    parser = OneLineParser(prog=PROG, description="Microfacet BSDF lookup tables with error estimates.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (help_text, configure, handler) in COMMANDS.items():
@@ -181,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into `head` and the like: stop quietly
         _silence_stdout()
         return 0
-    except (CliError, SpecError, ValueError) as exc:
+    except (CliError, SpecError) as exc:  # bad input: the handlers raise these (never a bare ValueError)
         return _error(str(exc), 2)
     except OSError as exc:
         return _error(_os_message(exc), 2)

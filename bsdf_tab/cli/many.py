@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from .common import PROG, CliError, quiet_warp, summary
+from ..errors import SpecError
+from .common import PROG, CliError, check_device, check_texels, quiet_warp, refuse_file_name, summary
 
 __all__ = ["Job", "add_cluster_arguments", "bake_library", "bake_specs", "check_cost", "connect_cluster", "exr_job", "is_library_file",
            "scheduler_of", "storage_words"]
@@ -38,11 +39,19 @@ def add_cluster_arguments(parser: argparse.ArgumentParser) -> None:
 
 def scheduler_of(args: argparse.Namespace) -> str | None:
     """The scheduler asked for: ``--scheduler``, else ``$BSDF_TAB_SCHEDULER``, else None."""
-    value = getattr(args, "scheduler", None) or os.environ.get(SCHEDULER_ENV) or None
-    if value is not None:
-        from ..cluster import parse_scheduler
+    given = getattr(args, "scheduler", None)
+    value = given or os.environ.get(SCHEDULER_ENV) or None
+    if value is None:
+        return None
+    from ..cluster import SchedulerError, parse_scheduler
 
-        parse_scheduler(value)  # a malformed value is one line before anything starts
+    where = "--scheduler" if given else f"scheduler ${SCHEDULER_ENV}"
+    try:
+        form, _ = parse_scheduler(value)
+    except SchedulerError as exc:  # a malformed value is one line before anything starts
+        raise CliError(f"{where}: {str(exc).removeprefix('scheduler: ')}") from None
+    if form == "address" and value.strip().lower().startswith("local:"):  # local:abc is not host:port
+        raise CliError(f"{where}: local:N needs a whole number N >= 1 of worker processes, got {value!r}")
     return value
 
 
@@ -74,9 +83,12 @@ def bake_specs(args: argparse.Namespace, jobs: list) -> int:
         print(f"{PROG}: --resume: {skipped} of {len(jobs)} tables exist, skipped", file=sys.stderr)
     if not todo:
         return 0
+    for job in todo:
+        check_texels(job.spec, str(job.out))
     check_cost(args, [j.spec for j in todo])
     scheduler = scheduler_of(args)
     quiet_warp(args)
+    check_device(args, scheduler)
     client, owned = None, False
     if scheduler:
         client, owned = connect_cluster(scheduler)
@@ -118,6 +130,8 @@ def connect_cluster(scheduler: str):
         client, owned = connect(scheduler)
     except SchedulerError as exc:
         raise CliError(str(exc)) from None
+    except ValueError as exc:  # Dask's own parse of a malformed address (tcp://host:abc)
+        raise CliError(f"--scheduler {scheduler}: not a scheduler address ({exc})") from None
     n = len(client.scheduler_info().get("workers", {}))
     link = dashboard_link(client)
     print(f"{PROG}: scheduler {client.scheduler.address}, {n} workers"
@@ -137,6 +151,7 @@ def _bake(args, todo: list[Job], client) -> int:
                 job.out.parent.mkdir(parents=True, exist_ok=True)
                 if job.finish is not None:
                     table = job.finish(table)
+                api.check_finite(table.channels, f"output {job.out}")  # the last guard: never a file with NaN values
                 try:
                     io.write(table, job.out, job.fmt)
                 except ValueError as exc:  # e.g. values beyond the float16 range
@@ -184,7 +199,7 @@ def is_library_file(path: str) -> bool:
     from ..scene import load_scene_file
 
     try:
-        return is_library(load_scene_file(path))
+        return is_library(load_scene_file(path, strict=False))  # the library loader reports a repeated key
     except Exception:  # noqa: BLE001 - the other loaders report what is wrong with the file
         return False
 
@@ -196,8 +211,9 @@ def bake_library(args: argparse.Namespace) -> int:
 
     try:
         specs = library_specs(load_scene_file(args.spec))
-    except ValueError as exc:  # SpecError: one line naming the library parameter
+    except SpecError as exc:  # one line naming the library parameter
         raise CliError(f"{args.spec}: {exc}") from None
+    refuse_file_name(args.output, "a material library bake")
     out_dir = Path(args.output or "luts")
     if out_dir.exists() and not out_dir.is_dir():
         raise CliError(f"output {out_dir} exists and is not a folder (a library is baked into -o DIR)")

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import SpecError
-from .common import CliError, check_workers, quiet_warp
+from .common import CliError, check_device, check_workers, quiet_warp
 
 if TYPE_CHECKING:
     from ..scene import ScenePlan
@@ -59,7 +59,7 @@ def is_scene_file(path: str) -> bool:
     from ..scene import is_scene, load_scene_file
 
     try:
-        return is_scene(load_scene_file(path))
+        return is_scene(load_scene_file(path, strict=False))  # the scene loader reports a repeated key
     except SpecError:
         return False  # the spec loader reports it
 
@@ -98,6 +98,7 @@ def _plan(args: argparse.Namespace, path: str) -> ScenePlan:
     from .many import connect_cluster, scheduler_of
 
     scheduler = scheduler_of(args)
+    check_device(args, scheduler)
     client, owned = connect_cluster(scheduler) if scheduler else (None, False)
     try:
         return plan_scene(scene, args.tol, device=args.device, workers=args.workers,

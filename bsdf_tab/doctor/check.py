@@ -22,7 +22,7 @@ from ..lookup import fit_axis
 from .exact import exact_at
 from .fit import NODE_FORMULA, NODE_TYPES, Hypothesis, encodings, even_indices, search
 from .readers import LutImage, LutReadError, read_lut, read_lut_bytes
-from .nd import search_nd
+from .nd import claimed_axes as file_axes, search_nd
 from .ndcheck import check_nd
 from .report import Report
 from .storage import BITS as _BITS
@@ -84,7 +84,8 @@ def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "l
     report = _check_2d(img, expect_axes=expect_axes, heatmap=None, name=name)
     if report.best.score > TRY_AVG_ABOVE:
         spread = np.nanmax(data, axis=(0, 1)) - np.nanmin(data, axis=(0, 1))
-        ranked = search_nd("dielectric_avg", data, [c for c in range(data.shape[2]) if spread[c] > 1e-6])
+        ranked = search_nd("dielectric_avg", data, [c for c in range(data.shape[2]) if spread[c] > 1e-6],
+                           claimed=file_axes(img.claims, data.shape[:-1]))
         if ranked[0].score < 0.5 * report.best.score:
             return check_nd("dielectric_avg", img, data, expect_axes=expect_axes, heatmap=heatmap, name=name,
                             ranked=ranked)

@@ -36,7 +36,8 @@ from .exact import MODELS
 from .fit import MU_COORD, MU_SPACINGS, NODE_TYPES, ROUGH_COORD, ROUGH_MAPS, encodings, even_indices
 from .glass import GLASS_MODELS, albedo_avg_candidate, eta_of_z, glass_avg, glass_values
 
-__all__ = ["IOR_SPACINGS", "KINDS_ND", "NDAxis", "NDHypothesis", "meanings_of", "search_nd"]
+__all__ = ["FILE_SPACING", "IOR_SPACINGS", "KINDS_ND", "NDAxis", "NDHypothesis", "claimed_axes", "meanings_of",
+           "search_nd"]
 
 IOR_SPACINGS = ("z", "z-inv", "openpbr")
 IOR_COORD = {"z": "x = sqrt((ior - 1)/(ior + 1)), ior = (1 + x^2)/(1 - x^2), eta = ior > 1",
@@ -64,15 +65,23 @@ def _openpbr_ior(n: int) -> np.ndarray:
     return out
 
 
+#: The spacing of an axis whose values the file's own header gives (a bsdf-tab file's claims).
+FILE_SPACING = "file"
+
+
 @dataclass(frozen=True)
 class NDAxis:
-    """One file axis under a hypothesis: quantity ``mu`` / ``rough`` / ``ior``, its name and spacing."""
+    """One file axis under a hypothesis: quantity ``mu`` / ``rough`` / ``ior``, its name and spacing.
+
+    ``given``: with spacing :data:`FILE_SPACING`, the axis' values as the file's header gives
+    them, in the quantity's units (mu, alpha, eta)."""
 
     quantity: str
     name: str
     spacing: str
     nodes: str = "endpoints"
     reversed: bool = False
+    given: tuple | None = None
 
     def positions(self, n: int) -> np.ndarray:
         u = NODE_TYPES[self.nodes][0](n)
@@ -80,6 +89,8 @@ class NDAxis:
 
     def values(self, n: int) -> np.ndarray:
         """mu (mu axes), alpha (the roughness slot) or eta (ior axes) of each file index."""
+        if self.given is not None:  # the file's own values (its size was checked against n)
+            return np.asarray(self.given, dtype=np.float64)
         if self.quantity == "ior":
             if self.spacing == "openpbr":
                 v = _openpbr_ior(n)
@@ -96,10 +107,15 @@ class NDAxis:
         v = self.values(n)
         if self.quantity == "ior":
             return 1.0 / v if self.spacing == "z-inv" else v
+        if self.given is not None:
+            return np.sqrt(v) if self.name == "roughness" else v
         return np.sqrt(v) if self.name == "roughness" else v
 
     @property
     def coordinate(self) -> str:
+        if self.given is not None:
+            unit = {"ior": "eta", "mu": "mu"}.get(self.quantity, self.name)
+            return f"{unit} as the file's header gives it (a bsdf-tab file)"
         if self.quantity == "ior":
             return IOR_COORD[self.spacing]
         return MU_COORD[self.spacing] if self.quantity == "mu" else ROUGH_COORD[(self.name, self.spacing)]
@@ -143,7 +159,8 @@ class NDHypothesis:
         if i is None:
             return None
         return {"z": "eta > 1 (eta = ior, light from outside)", "z-inv": "eta < 1 (eta = 1/ior, light from inside)",
-                "openpbr": "eta = ior on both sides of 1 (0.4 .. 2.5)"}[self.axes[i].spacing]
+                "openpbr": "eta = ior on both sides of 1 (0.4 .. 2.5)",
+                FILE_SPACING: "eta as the file's header gives it"}[self.axes[i].spacing]
 
 
 def predict(kind: str, values: dict) -> dict:
@@ -167,6 +184,34 @@ def to_file_order(kind: str, hyp_axes, arrays: dict) -> dict:
     canon = KINDS_ND[kind][0]
     perm = [canon.index(a.quantity) for a in hyp_axes]
     return {k: np.transpose(v, perm) for k, v in arrays.items()}
+
+
+_CLAIM_SLOTS = {"mu": ("mu", "mu"), "alpha": ("rough", "alpha"), "roughness": ("rough", "roughness"),
+                "eta": ("ior", "ior")}
+
+
+def claimed_axes(claims: dict, shape: tuple) -> list | None:
+    """Per file axis, an :class:`NDAxis` with the values a bsdf-tab file's header claims
+    (``claims["axes"]``: ``[[name, values], ...]``), or None where it claims nothing usable."""
+    axes = claims.get("axes") if isinstance(claims, dict) else None
+    if isinstance(axes, dict):
+        axes = [[name, values] for name, values in axes.items()]
+    if not isinstance(axes, list) or len(axes) != len(shape):
+        return None
+    out = []
+    for item, n in zip(axes, shape):
+        slot = _CLAIM_SLOTS.get(item[0]) if isinstance(item, list) and len(item) == 2 else None
+        try:
+            values = np.asarray(item[1], dtype=np.float64) if slot else None
+        except (TypeError, ValueError):  # malformed claims are no claims
+            values = None
+        if values is None or values.shape != (n,) or not np.isfinite(values).all():
+            out.append(None)
+            continue
+        if slot[1] == "roughness":
+            values = values**2  # the roughness slot's quantity is alpha = roughness^2
+        out.append(NDAxis(slot[0], slot[1], FILE_SPACING, given=tuple(float(v) for v in values)))
+    return out if any(a is not None for a in out) else None
 
 
 TRIM = 0.05
@@ -195,7 +240,9 @@ class _Scorer:
         self._cache: dict = {}
 
     def _pred(self, h: NDHypothesis) -> dict:
-        key = (h.distribution, h.shadowing) + tuple(sorted(a.key() for a in h.axes))
+        # each axis' nodes depend on the size of the file axis it sits on: the key pairs the two
+        # (sorted: the same quantities on the same axes in another order share the prediction)
+        key = (h.distribution, h.shadowing) + tuple(sorted((a.key(), n) for a, n in zip(h.axes, self.shape)))
         if key not in self._cache:
             nodes = {a.quantity: a.values(n)[i] for a, n, i in zip(h.axes, self.shape, self.idx)}
             self._cache[key] = predict(self.kind, model_values(self.kind, h.distribution, h.shadowing, nodes))
@@ -223,7 +270,9 @@ class _Scorer:
         return replace(h, encoding=enc, meanings=meanings, errors=errors, score=total / max(len(self.active), 1))
 
 
-def _variants(quantity: str, nodes_set) -> list[NDAxis]:
+def _variants(quantity: str, nodes_set, claimed: NDAxis | None = None) -> list[NDAxis]:
+    if claimed is not None and claimed.quantity == quantity:  # a bsdf-tab file: its own axis values too
+        return [claimed] + _variants(quantity, nodes_set)
     if quantity == "ior":
         out = []
         for sp in IOR_SPACINGS:
@@ -242,7 +291,7 @@ def _descend(scorer: _Scorer, h: NDHypothesis, encs, passes: int = 2) -> list[ND
     seen[tuple(a.nodes for a in cur.axes)] = cur
     for _ in range(passes):
         for k, a in enumerate(cur.axes):
-            if a.spacing == "openpbr":
+            if a.spacing in ("openpbr", FILE_SPACING):  # index-based or given: no node convention to choose
                 continue
             for nodes in NODE_TYPES:
                 axes = list(cur.axes)
@@ -254,7 +303,8 @@ def _descend(scorer: _Scorer, h: NDHypothesis, encs, passes: int = 2) -> list[ND
     return list(seen.values())
 
 
-def search_nd(kind: str, data: np.ndarray, active: list[int], keep: int = 3) -> list[NDHypothesis]:
+def search_nd(kind: str, data: np.ndarray, active: list[int], keep: int = 3,
+              claimed: list | None = None) -> list[NDHypothesis]:
     """Rank the hypotheses of ``kind`` for ``data`` (axes..., channels); best first.
 
     Parameters
@@ -267,6 +317,9 @@ def search_nd(kind: str, data: np.ndarray, active: list[int], keep: int = 3) -> 
         The non-constant channels.
     keep : int
         Geometries carried to the fine stage.
+    claimed : list, optional
+        Per file axis, an :class:`NDAxis` with the file's own values (:func:`claimed_axes`) or
+        None: tried besides the spacings (a bsdf-tab file's linear eta axis has none of them).
     """
     quantities, models = KINDS_ND[kind]
     ndim = data.ndim - 1
@@ -275,8 +328,9 @@ def search_nd(kind: str, data: np.ndarray, active: list[int], keep: int = 3) -> 
     scorer = _Scorer(kind, data, active, screen=10 if ndim == 3 else 32)
     coarse_nodes = ("endpoints",) if ndim == 3 else ("endpoints", "centers")
     coarse = []
+    claimed = claimed if claimed is not None and len(claimed) == ndim else [None] * ndim
     for perm in itertools.permutations(quantities):
-        for combo in itertools.product(*[_variants(q, coarse_nodes) for q in perm]):
+        for combo in itertools.product(*[_variants(q, coarse_nodes, c) for q, c in zip(perm, claimed)]):
             for dist, shadow in models:  # every model: separable and correlated differ by up to 0.9 inside glass
                 coarse.append(scorer.score(NDHypothesis(kind, tuple(combo), dist, shadow)))
     coarse.sort(key=lambda h: h.score)

@@ -15,7 +15,7 @@ import numpy as np
 
 from .fit import NODE_FORMULA, NODE_TYPES, even_indices
 from .glass import AVG_RULE, Z_MAX, albedo_avg_exact_at, glass_avg_exact_at, glass_exact_at
-from .nd import KINDS_ND, NDHypothesis, predict, search_nd, to_file_order
+from .nd import FILE_SPACING, KINDS_ND, NDHypothesis, claimed_axes as file_axes, predict, search_nd, to_file_order
 from .readers import LutImage
 from .storage import BITS, MU_CLAMPS, drop_guesses, high_frequency, quantization, storage_rms
 
@@ -78,7 +78,7 @@ class NDReport:
         out = {"file_axis": label, "name": a.label, "size": n, "spacing": a.spacing, "coordinate": a.coordinate,
                "nodes": a.nodes, "offset_texels": offset or 0.0, "range": [float(values.min()), float(values.max())],
                "reversed": bool(a.reversed), "clamp": clamp}
-        if a.quantity == "ior" and a.spacing != "openpbr":
+        if a.quantity == "ior" and a.spacing not in ("openpbr", FILE_SPACING):
             out["clamp"] = {"x_max": Z_MAX, "ior_max": float((1 + Z_MAX**2) / (1 - Z_MAX**2))}
         return out
 
@@ -189,7 +189,7 @@ def check_nd(kind: str, img: LutImage, data: np.ndarray, *, expect_axes=None, he
     spread = np.nanmax(data.reshape(-1, data.shape[-1]), axis=0) - np.nanmin(data.reshape(-1, data.shape[-1]), axis=0)
     active = [c for c in range(data.shape[-1]) if spread[c] > 1e-6]
     if ranked is None:
-        ranked = search_nd(kind, data, active)
+        ranked = search_nd(kind, data, active, claimed=file_axes(img.claims, data.shape[:-1]))
     best = ranked[0]
     shape = data.shape[:-1]
     idx = [even_indices(n, MAX_CHECK[ndim]) for n in shape]

@@ -322,21 +322,22 @@ def _claimed_sizes(claims: dict) -> list[int] | None:
     return None
 
 
-def read_exr(data: bytes) -> LutImage:
-    """An EXR image: its channels (bsdf-tab order if it says so), and a bsdf-tab file's claims."""
+def read_exr(data: bytes, name: str = "lut.exr") -> LutImage:
+    """An EXR image: its channels (bsdf-tab order if it says so), and a bsdf-tab file's claims.
+
+    ``name`` (the user's file) is what an error names, never the temporary copy OpenEXR reads."""
     import tempfile
 
-    import OpenEXR
+    from ..io.base import FormatError
+    from ..io.exr import read_channels
 
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "lut.exr"
         path.write_bytes(data)
         try:
-            with OpenEXR.File(str(path), separate_channels=True) as exr:
-                header = dict(exr.header())
-                chans = {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
-        except RuntimeError as exc:
-            raise LutReadError(f"cannot read the EXR file: {exc}") from None
+            header, chans = read_channels(path, name)
+        except FormatError as exc:  # truncated or damaged: one line naming the user's file
+            raise LutReadError(exc.message, None) from None
     attrs = {}
     for key, value in header.items():
         if isinstance(key, str) and key.startswith("bsdf_tab_"):
@@ -386,14 +387,18 @@ def read_array_text(text: str, shape, values: str = "float", array_name: str | N
     tokens = [t.rstrip("uUlL") if t.lstrip("+-").lower().startswith("0x") else t.rstrip("fFlLuU")
               for t in _NUMBER.findall(body)]
     need = int(np.prod(shape))
-    if len(tokens) < need:
-        raise LutReadError(f"the array file holds {len(tokens)} numbers, the shape {tuple(shape)} needs {need}", "shape")
-    tokens = tokens[:need] if len(tokens) == need else tokens[-need:]
+    if len(tokens) != need:  # too many is as wrong as too few: never a silent partial read
+        hint = ""
+        names = [] if array_name else _initialized_arrays(text)
+        if len(names) > 1:
+            hint = f"; the file initializes {len(names)} arrays ({', '.join(names[:6])}): choose one with --array-name"
+        raise LutReadError(f"the array file holds {len(tokens)} numbers, the shape {tuple(shape)} needs {need}{hint}",
+                           "shape")
     if values == "float":
         nums = np.array([float.fromhex(t) if t.lower().startswith(("0x", "-0x")) else float(t) for t in tokens])
         storage = "float32"
     else:
-        ints = np.array([int(t, 0) for t in tokens], dtype=np.int64)
+        ints = np.array(_integers(tokens, values), dtype=np.int64)
         if values == "half":
             nums = ints.astype(np.uint16).view(np.float16).astype(np.float64)
             storage = "float16"
@@ -401,6 +406,28 @@ def read_array_text(text: str, shape, values: str = "float", array_name: str | N
             nums = ints / (255.0 if values == "unorm8" else 65535.0)
             storage = values
     return _as_image(nums.reshape(tuple(shape)), "array", storage=storage)
+
+
+_INITIALIZED = re.compile(r"(?<![A-Za-z0-9_])([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[[^\]]*\]\s*)*=\s*"
+                          r"(?:new\s+[A-Za-z0-9_]+\s*\(\s*)?[\[{(]")
+
+
+def _initialized_arrays(text: str) -> list[str]:
+    """The names of the arrays a C/C++/JS source (comments dropped) initializes, in order."""
+    return list(dict.fromkeys(m.group(1) for m in _INITIALIZED.finditer(text)))
+
+
+def _integers(tokens: list[str], values: str) -> list[int]:
+    """The integers of an array file read as ``values`` (half, unorm8, unorm16); one LutReadError
+    naming the first number that is not one (a float array read with the wrong --array-values)."""
+    out = []
+    for t in tokens:
+        try:
+            out.append(int(t, 0))
+        except ValueError:
+            raise LutReadError(f"{values} reads integers, but the array file holds {t!r}; "
+                               "use --array-values float for decimal numbers", "array_values") from None
+    return out
 
 
 def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str = "float",
@@ -430,7 +457,7 @@ def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str
     if data[:4] == b"DDS ":
         return read_dds(data)
     if data[:4] == b"\x76\x2f\x31\x01":
-        return read_exr(data)
+        return read_exr(data, name)
     if data[:6] == b"\x93NUMPY":
         import io
 

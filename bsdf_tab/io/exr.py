@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 import tempfile
 from pathlib import Path
 from typing import Callable
@@ -43,7 +44,7 @@ import OpenEXR
 
 from ..version import __version__
 from .atomic import atomic_path
-from .base import Format, build, json_default, shape_of
+from .base import Format, FormatError, build, json_default, shape_of
 
 __all__ = [
     "ATTR_PREFIX",
@@ -57,6 +58,9 @@ __all__ = [
     "exr_bytes",
     "read_exr",
     "read_exr_bytes",
+    "read_channels",
+    "check_exr_file",
+    "exr_damage",
 ]
 
 ATTR_PREFIX = "bsdf_tab_"
@@ -212,6 +216,120 @@ def exr_bytes(table) -> bytes:
 
 # --------------------------------------------------------------------------- reading
 
+#: Scanlines per chunk of each OpenEXR compression (the ``compression`` attribute's value).
+_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256, 10: 256, 11: 32}
+#: Version-field flags of files :func:`exr_damage` does not walk (tiled, deep, multi-part).
+_NOT_WALKED = 0x200 | 0x800 | 0x1000
+
+
+def _read_exact(fh, n: int, what: str) -> bytes:
+    data = fh.read(n)
+    if len(data) != n:
+        raise EOFError(what)
+    return data
+
+
+def _header_attrs(fh) -> dict[str, bytes]:
+    """The header attributes (name -> raw value) of a single-part file, ``fh`` after the version."""
+    attrs = {}
+    while True:
+        name = _cstring(fh)
+        if not name:
+            return attrs
+        _cstring(fh)  # the attribute's type name
+        (size,) = struct.unpack("<i", _read_exact(fh, 4, "header cut short"))
+        if size < 0:  # a negative size is no header OpenEXR wrote
+            raise EOFError(f"attribute {name!r} has size {size}")
+        attrs[name] = _read_exact(fh, size, f"header cut short in attribute {name!r}")
+
+
+def _cstring(fh, limit: int = 256) -> str:
+    out = bytearray()
+    while len(out) <= limit:  # names are at most 255 bytes (long-name files)
+        c = _read_exact(fh, 1, "header cut short")
+        if c == b"\0":
+            return out.decode("latin-1")
+        out += c
+    raise EOFError("header name too long")
+
+
+def exr_damage(fh, size: int) -> str | None:
+    """What is structurally wrong with a scanline OpenEXR file, or None.
+
+    Walks the header, the chunk offset table and every chunk's leader (scanline and packed
+    size) without decoding pixels, so a truncated or damaged file is named before OpenEXR reads
+    it (its C++ library prints warnings on the process' stdout and stderr for such files).
+    Tiled, deep and multi-part files and unknown compressions are not walked (None).
+
+    Parameters
+    ----------
+    fh : binary file object
+        Positioned at the start of the file.
+    size : int
+        The file's size in bytes.
+
+    Returns
+    -------
+    str or None
+        A short description of the damage (``"chunk 3 of 4 runs past the end of the file"``).
+    """
+    try:
+        if _read_exact(fh, 4, "not an OpenEXR file") != EXR_MAGIC:
+            return "not an OpenEXR file"
+        (version,) = struct.unpack("<i", _read_exact(fh, 4, "no version field"))
+        if version & _NOT_WALKED:
+            return None
+        attrs = _header_attrs(fh)
+        if "dataWindow" not in attrs or "compression" not in attrs:
+            return "the header has no dataWindow or compression"
+        lines = _LINES_PER_CHUNK.get(attrs["compression"][0])
+        if lines is None or len(attrs["dataWindow"]) != 16:
+            return None
+        _x0, y0, _x1, y1 = struct.unpack("<4i", attrs["dataWindow"])
+        chunks = -(-(y1 - y0 + 1) // lines)
+        table_end = fh.tell() + 8 * chunks
+        offsets = struct.unpack(f"<{chunks}Q", _read_exact(fh, 8 * chunks, "the chunk offset table is cut short"))
+    except EOFError as exc:
+        return str(exc)
+    except (struct.error, IndexError):
+        return "malformed header"
+    for i, offset in enumerate(offsets):
+        if not table_end <= offset <= size - 8:
+            return f"chunk {i + 1} of {chunks} starts past the end of the file"
+        fh.seek(offset + 4)
+        (packed,) = struct.unpack("<i", fh.read(4))
+        if packed < 0 or offset + 8 + packed > size:
+            return f"chunk {i + 1} of {chunks} runs past the end of the file"
+    return None
+
+
+def check_exr_file(path, name=None) -> None:
+    """Raise :class:`~bsdf_tab.io.base.FormatError` naming ``name`` (default ``path``) if the
+    OpenEXR file ``path`` is truncated or damaged (:func:`exr_damage`)."""
+    path = Path(path)
+    with open(path, "rb") as fh:
+        damage = exr_damage(fh, path.stat().st_size)
+    if damage is not None:
+        raise FormatError(None, f"{name or path}: truncated or corrupt OpenEXR file ({damage})")
+
+
+def read_channels(path, name=None) -> tuple[dict, dict]:
+    """(header, channel name -> pixels) of the OpenEXR file ``path``, checked first.
+
+    A damaged file is one :class:`~bsdf_tab.io.base.FormatError` naming ``name`` (the user's
+    file; default ``path``) instead of OpenEXR's own messages.
+    """
+    check_exr_file(path, name)
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            # copies: the File clears its header and channel dicts on close
+            header = dict(exr.header())
+            channels = {key: np.array(ch.pixels) for key, ch in exr.channels().items()}
+    except (RuntimeError, ValueError) as exc:  # OpenEXR's errors for files it cannot decode
+        raise FormatError(None, f"{name or path}: truncated or corrupt OpenEXR file ({' '.join(str(exc).split())})") from None
+    return header, channels
+
+
 
 def _check_is_exr(path: Path) -> None:
     if not path.exists():
@@ -281,13 +399,7 @@ def read_exr(path, factory: Callable | None = None):
     """
     path = Path(path)
     _check_is_exr(path)
-    try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
-            # copies: the File clears its header and channel dicts on close
-            header = dict(exr.header())
-            exr_channels = {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
-    except RuntimeError as exc:
-        raise ValueError(f"{path}: cannot read OpenEXR file: {exc}") from None
+    header, exr_channels = read_channels(path)
     axes = _axes_from_header(header, path)
     if not axes:
         raise ValueError(f"{path}: header attribute {ATTR_PREFIX}axes has no axes")

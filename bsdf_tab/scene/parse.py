@@ -30,6 +30,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from .. import jsontext
 from ..errors import SpecError
 from ..spec import DISTRIBUTIONS, FRESNEL_TYPES, SHADOWINGS, SPACINGS, normalize_spec, resolve_axis
 from ..validate import check_keys, choice, number
@@ -76,8 +77,11 @@ def is_scene(obj: Any) -> bool:
     return isinstance(obj, dict) and "materials" in obj
 
 
-def load_scene_file(path: str | Path) -> Any:
+def load_scene_file(path: str | Path, strict: bool = True) -> Any:
     """The contents of a scene (or spec) file: TOML for a ``.toml`` name, JSON otherwise.
+
+    ``strict`` (the default): a JSON object that repeats a key is an error; ``False`` keeps the
+    last, for telling a scene from a spec before the strict read reports it.
 
     Raises
     ------
@@ -99,9 +103,11 @@ def load_scene_file(path: str | Path) -> Any:
         except tomllib.TOMLDecodeError as exc:
             raise SpecError(None, f"{p}: invalid TOML: {exc}") from None
     try:
-        return json.loads(text)
+        return jsontext.loads(text) if strict else json.loads(text)  # strict: as spec files and the service
     except json.JSONDecodeError as exc:
         raise SpecError(None, f"{p}: invalid JSON: {exc}") from None
+    except SpecError as exc:
+        raise SpecError(None, f"{p}: {exc.message}") from None
 
 
 def parse_scene(scene: dict | str) -> dict:
@@ -121,7 +127,7 @@ def parse_scene(scene: dict | str) -> dict:
     """
     if isinstance(scene, (str, bytes, bytearray)):
         try:
-            scene = json.loads(scene)
+            scene = jsontext.loads(scene)
         except json.JSONDecodeError as exc:
             raise SpecError(None, f"invalid JSON: {exc}") from None
     if not isinstance(scene, dict):

@@ -10,6 +10,7 @@ from bsdf_tab import cli
 from bsdf_tab.cli import many as many_command
 from bsdf_tab.presets import default_specs
 from bsdf_tab import read_exr
+from bsdf_tab.errors import SpecError
 from bsdf_tab.spec import normalize_spec, resolve_axes, texel_count
 from bsdf_tab.table import Table
 
@@ -113,27 +114,33 @@ def test_usage_errors_exit_2(capsys):
     capsys.readouterr()
 
 
-def test_library_value_error_is_one_line(monkeypatch, tmp_path, capsys):
+def test_library_spec_error_is_one_line(monkeypatch, tmp_path, capsys):
     def tabulate(spec, **kwargs):
-        raise ValueError("tolerance cannot be reached\non this device")
+        raise SpecError("tolerance", "cannot be reached\non this device")
 
     monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
     code, _, err = run(capsys, "bake", str(spec))
-    assert_one_line_error(code, err, "tolerance cannot be reached on this device")
+    assert_one_line_error(code, err, "tolerance: cannot be reached on this device")
 
 
-def test_internal_error_no_traceback(monkeypatch, tmp_path, capsys):
+@pytest.mark.parametrize("exc", [ValueError("operands could not be broadcast together"),
+                                 RuntimeError("kernel exploded")])
+def test_library_errors_are_internal_and_debug_shows_them(monkeypatch, tmp_path, capsys, exc):
+    """A bare ValueError (NumPy's, a bug's) is not bad input, as a RuntimeError is not: exit 1,
+    one line, its traceback with --debug."""
     def tabulate(spec, **kwargs):
-        raise RuntimeError("kernel exploded")
+        raise exc
 
     monkeypatch.setattr(bsdf_tab.api, "tabulate", tabulate)
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"table": "albedo_avg", "axes": {"alpha": [0.5]}}))
     code, _, err = run(capsys, "bake", str(spec))
-    assert code == 1
-    assert len(err.strip().splitlines()) == 1 and "kernel exploded" in err and "Traceback" not in err
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert f"internal error: {type(exc).__name__}: {exc}" in err
+    with pytest.raises(type(exc), match=str(exc).split()[0]):  # --debug: the exception propagates (a traceback)
+        cli.main(["--debug", "bake", str(spec)])
 
 
 def test_keyboard_interrupt_exit_130(monkeypatch, tmp_path, capsys):

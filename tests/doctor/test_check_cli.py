@@ -80,7 +80,22 @@ def test_array_name_picks_one_of_several_arrays(tmp_path, capsys):
     src.write_text(f"const float big[16][16] = {{{other}}};\nconst float ramp[8][8] = {{{body}}};\n")
     code, out, err = run(capsys, "check", str(src), "--shape", "8,8", "--array-name", "ramp", "--json")
     assert code == 0, err
-    code2, out2, err2 = run(capsys, "check", str(src), "--shape", "8,8", "--array-name", "big", "--json")
-    assert code2 == 0, err2  # the last 64 numbers of the 16 x 16 array (a partial read, as for rows)
-    # a squared ramp and the tail of a linear ramp are different data: different fits
+    code2, out2, err2 = run(capsys, "check", str(src), "--shape", "16,16", "--array-name", "big", "--json")
+    assert code2 == 0, err2
+    # a squared ramp and a linear ramp are different data: different fits
     assert json.loads(out)["max_error"] != json.loads(out2)["max_error"]
+
+
+def test_array_with_more_numbers_than_the_shape_is_an_error(tmp_path, capsys):
+    """--shape smaller than the data is refused like a larger one (never a silent partial read),
+    and a file with several arrays suggests --array-name."""
+    one = tmp_path / "dfg_arr.js"
+    one.write_text("const DFG = [" + ", ".join(f"{v:.4f}" for v in np.linspace(0, 1, 128)) + "];\n")
+    code, out, err = run(capsys, "check", str(one), "--shape", "8,8")
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "holds 128 numbers, the shape (8, 8) needs 64" in err and "--array-name" not in err
+    two = tmp_path / "two.cc"
+    two.write_text("const float big[4] = {1, 2, 3, 4};\nconst float small[2] = {5, 6};\n")
+    code, out, err = run(capsys, "check", str(two), "--shape", "4")
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "2 arrays (big, small)" in err and "--array-name" in err

@@ -243,7 +243,9 @@ def test_page(client):
         ("/tables/albedo?colour=red", 400, "colour", "colour"),
         ("/tables/albedo?mu=0.1&mu=0.2", 400, "mu", "mu"),
         ("/tables/albedo?alpha=-0.1", 400, "axes.alpha", "alpha"),
-        ("/tables/albedo?alpha_min=-1&alpha_size=2", 400, "axes.alpha", "alpha"),
+        ("/tables/albedo?alpha_min=-1&alpha_size=2", 400, "axes.alpha.range", "alpha_min,alpha_max"),
+        ("/tables/albedo?mu_max=1e308", 400, "axes.mu.range", "mu_min,mu_max"),  # the range, not a node
+        ("/tables/albedo?mu_size=4&mu_max=2", 400, "axes.mu.range", "mu_min,mu_max"),
         ("/tables/albedo?fresnel=dielectric&fresnel_eta=0", 400, "fresnel.eta", "fresnel_eta"),
         ("/tables/albedo?fresnel=dielectric&fresnel_eta=-2", 400, "fresnel.eta", "fresnel_eta"),
         ("/tables/dielectric?eta=0,1.5&mu=1&alpha=0.5", 400, "axes.eta", "eta"),
