@@ -433,6 +433,11 @@ class SingleFlight:
             task.add_done_callback(lambda t, key=key: self._done(key, t))
         return await asyncio.shield(task)
 
+    def forget(self, match: Callable[[str], bool]) -> list[asyncio.Task]:
+        """Drop the keys ``match`` selects (their next call starts afresh); their tasks, to cancel or not."""
+        keys = [k for k in self._tasks if match(k)]
+        return [self._tasks.pop(k) for k in keys]
+
     def _done(self, key: str, task: asyncio.Task) -> None:
         if self._tasks.get(key) is task:
             del self._tasks[key]

@@ -32,6 +32,7 @@ class Computation:
 
     name: str
     limit_seconds: float
+    lane: str = "sync"  # the pool it runs in: "sync" (requests) or "job"
     queued: float = field(default_factory=time.monotonic)
     started: float | None = None  # when it left the queue; its wall-clock limit counts from here
     done: int = 0
@@ -60,7 +61,7 @@ class Computation:
 
     def status(self) -> dict:
         now = time.monotonic()
-        return {"name": self.name, "state": "queued" if self.started is None else "running",
+        return {"name": self.name, "lane": self.lane, "state": "queued" if self.started is None else "running",
                 "done": self.done, "total": self.total, "waiters": self.waiters,
                 "elapsed_s": round(now - self.queued, 3),
                 "running_s": 0.0 if self.started is None else round(now - self.started, 3),

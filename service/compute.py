@@ -134,7 +134,8 @@ class TableStore:
         self.io_pool = ThreadPoolExecutor(4, thread_name_prefix="bsdf-tab-io")
         self.computations = 0  # computations that finished (or failed), tables and scenes
         self.computing = 0  # computations running now
-        self.waiting = 0  # computations waiting for a compute slot, a peer's lock, or running
+        self.lanes = {"sync": 0, "job": 0}  # computations queued or running, per lane (``waiting``: both)
+        self._limits: dict[str, float] = {}  # key -> the largest limit of its waiters
         self.compute_seconds = 0.0
         self.counters = {"cancelled": 0, "timed_out": 0, "failed": 0, "peer_computed": 0, "scenes": 0,
                          "rejected_cost": 0, "busy": 0, "queue_timeout": 0, "client_gone": 0, "checks": 0}
@@ -307,7 +308,7 @@ class TableStore:
         (503: ``busy`` if the computation is still queued, ``time_limit`` if it runs).
         """
         with self._lock:
-            self._waiters_add(key, 1)
+            self._waiters_add(key, 1, limit_seconds)
         task = asyncio.ensure_future(awaitable)
         since = time.monotonic()
         overdue = False
@@ -330,21 +331,39 @@ class TableStore:
         finally:
             with self._lock:
                 left = self._waiters_add(key, -1)
-            comp = self.running.get(key)
-            if left <= 0 and comp is not None:
-                comp.cancel(f"over its wall-clock limit of {limit_seconds:g} s" if overdue and comp.started is not None
-                            else "every client waiting for it has gone")
+            if left <= 0:
+                self._abandon(key, f"its last waiter left after waiting {limit_seconds:g} s" if overdue
+                              else "every client waiting for it has gone")
 
-    def _waiters_add(self, key: str, n: int) -> int:  # with self._lock
+    def _waiters_add(self, key: str, n: int, limit_seconds: float | None = None) -> int:  # with self._lock
+        """Count a waiter of ``key`` in or out; a waiter's limit extends the computation's (a job that
+        joins a computation a request started must not be stopped by the request's limit)."""
         counts = self._waiters
         counts[key] = counts.get(key, 0) + n
         left = counts[key]
+        if limit_seconds is not None:
+            self._limits[key] = max(self._limits.get(key, 0.0), limit_seconds)
         if left <= 0:
             del counts[key]
+            self._limits.pop(key, None)
         comp = self.running.get(key)
         if comp is not None:
             comp.waiters = max(0, left)
+            comp.limit_seconds = max(comp.limit_seconds, self._limits.get(key, 0.0))
         return left
+
+    def _abandon(self, key: str, reason: str) -> None:
+        """Nobody waits for computation ``key`` any more: cancel it, and forget its flights so that the
+        next request starts afresh instead of joining a cancelled one. A queued computation's task is
+        cancelled too (its place in the queue is freed now, its executor future never runs); a running
+        one stops at its next chunk and keeps its place until then."""
+        comp = self.running.get(key)
+        if comp is not None:
+            comp.cancel(reason)
+        queued = comp is None or comp.started is None
+        for task in self.flight.forget(lambda name: name == key or name.startswith(f"{key}.")):
+            if queued:
+                task.cancel()
 
     def _overdue(self, comp: Computation | None, limit_seconds: float) -> ServiceError:
         """The 503 of a waiter that waited ``limit_seconds``: still queued (busy) or not finished."""
@@ -353,7 +372,7 @@ class TableStore:
             return ServiceError(
                 503, "busy", f"waited {limit_seconds:g} s for a compute slot ({self.waiting} computations running "
                              "or queued); try again later", headers={"Retry-After": "5"})
-        # counted as timed_out when the computation stops (it goes on if another waiter, a job, holds it)
+        self.counters["timed_out"] += 1  # the request's; the computation goes on if another waiter (a job) holds it
         return ServiceError(503, "time_limit", f"the computation did not finish within {limit_seconds:g} s")
 
     def progress_of(self, key: str) -> dict | None:
@@ -369,13 +388,17 @@ class TableStore:
             self.memory.put(name, payload)
         return payload
 
-    def _admit(self) -> None:
-        """A slot in the queue, or 503 (the same door for tables and scenes)."""
+    def _admit(self, lane: str = "sync") -> None:
+        """A place in the synchronous lane's queue, or 503 (one door for tables, scenes and checks).
+
+        Jobs are not refused here: their records are their queue, and their lane waits for them."""
+        if lane == "job":
+            return
         limit = self.settings.max_concurrent + self.settings.max_queued
-        if self.waiting >= limit:
+        if self.lanes["sync"] >= limit:
             self.counters["busy"] += 1
             raise ServiceError(
-                503, "busy", f"{self.waiting} computations are running or queued; try again later",
+                503, "busy", f"{self.lanes['sync']} computations are running or queued; try again later",
                 headers={"Retry-After": "5"},
             )
 
@@ -384,8 +407,8 @@ class TableStore:
         payload = await self._cache_get(name, validator(MASTER, prep.key))
         if payload is not None:
             return payload
-        self._admit()
-        comp = self._begin(prep.key, name, limit_seconds)
+        self._admit(lane)
+        comp = self._begin(prep.key, name, limit_seconds, lane)
         lock = self.cache.key_lock(name)
         try:
             while not lock.try_acquire():  # another process computes this key: wait for its entry
@@ -406,25 +429,34 @@ class TableStore:
         except Cancelled as exc:
             raise self._cancelled(exc) from None
         finally:
-            self._end(prep.key)
+            self._end(prep.key, comp)
 
     def _pool(self, lane: str) -> ThreadPoolExecutor:
         if lane not in ("sync", "job"):
             raise ValueError(f"lane must be 'sync' or 'job', got {lane!r}")
         return self.job_pool if lane == "job" else self.compute_pool
 
-    def _begin(self, key: str, name: str, limit_seconds: float) -> Computation:
-        comp = Computation(name=name, limit_seconds=limit_seconds)
+    def _begin(self, key: str, name: str, limit_seconds: float, lane: str = "sync") -> Computation:
+        comp = Computation(name=name, limit_seconds=limit_seconds, lane=lane)
         with self._lock:
             comp.waiters = self._waiters.get(key, 0)
+            comp.limit_seconds = max(limit_seconds, self._limits.get(key, 0.0))
             self.running[key] = comp
-        self.waiting += 1
+        if comp.waiters == 0:  # its last waiter left while it was being prepared: it never runs
+            comp.cancel("every client waiting for it has gone")
+        self.lanes[lane] += 1
         return comp
 
-    def _end(self, key: str) -> None:
-        self.waiting -= 1
+    def _end(self, key: str, comp: Computation) -> None:
+        self.lanes[comp.lane] -= 1
         with self._lock:
-            self.running.pop(key, None)
+            if self.running.get(key) is comp:  # a fresh computation of the key may have replaced it
+                del self.running[key]
+
+    @property
+    def waiting(self) -> int:
+        """Computations running or queued, both lanes."""
+        return self.lanes["sync"] + self.lanes["job"]
 
     def _cancelled(self, exc: Cancelled) -> ServiceError:
         timed_out = "wall-clock" in exc.reason
@@ -452,15 +484,26 @@ class TableStore:
 
     async def _in_lane(self, name: str, limit: float, lane: str, work: Callable, *args):
         """``work(comp, *args)`` in ``lane``'s pool as computation ``name``: admitted (or 503), listed, limited."""
-        self._admit()
-        comp = self._begin(name, name, limit)
+        self._admit(lane)
+        comp = self._begin(name, name, limit, lane)
+        held = False
         try:
             loop = asyncio.get_running_loop()
-            return await loop.run_in_executor(self._pool(lane), work, comp, *args)
+            future = loop.run_in_executor(self._pool(lane), work, comp, *args)
+            try:
+                return await asyncio.shield(future)
+            except asyncio.CancelledError:
+                if comp.started is not None:  # it runs on in its thread: it keeps its place until it ends
+                    held = True
+                    future.add_done_callback(lambda _f: self._end(name, comp))
+                else:
+                    future.cancel()  # still queued: never runs
+                raise
         except Cancelled as exc:
             raise self._cancelled(exc) from None
         finally:
-            self._end(name)
+            if not held:
+                self._end(name, comp)
 
     def _compute_and_store(self, prep: Prepared, name: str, comp: Computation) -> bytes:
         t0 = time.perf_counter()

@@ -262,7 +262,7 @@ async def _render_result(request: Request, kind: str, items: list[tuple[str, str
         prep, spec_items, note = _fitted(store, kind, spec_items, exc)
     check_preview(prep.axes, channel_names(kind, errors=True), extra.get("channel"), extra.get("slice_axis"),
                   extra.get("slice"))
-    info = json.loads(await store.variant(prep, "info"))
+    info = json.loads(await store.variant(prep, "info", client=request.is_disconnected))
     query = urlencode(spec_items)
     preview_query = urlencode(spec_items + [(k, extra[k]) for k in ("channel", "slice", "slice_axis") if k in extra])
     return note + _result(kind, query, preview_query, info)
@@ -277,7 +277,8 @@ def _fitted(store, kind: str, spec_items: list, exc: ServiceError):
     for n in PAGE_SIZES:
         items = spec_items + [(f"{a}_size", str(n)) for a in axes]
         try:
-            prep = store.prepare(spec_from_query(kind, items)[0], max_cost=PAGE_COST_SECONDS)
+            prep = store.prepare(spec_from_query(kind, items)[0],
+                                 max_cost=min(PAGE_COST_SECONDS, store.settings.max_cost_seconds))
         except ServiceError as again:
             if again.status != 413:
                 raise

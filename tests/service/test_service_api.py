@@ -463,3 +463,18 @@ def test_preview_slice_4d_http(client):
     err(client.get(f"/tables/albedo_aniso/preview.png?{q}&slice_axis=alpha"), 400, "slice_axis")
     page = client.get(f"/?table=albedo_aniso&{q}&slice=alpha%3D0,anisotropy%3D2")
     assert page.status_code == 200 and "slice=alpha%3D0%2Canisotropy%3D2" in page.text
+
+
+def test_a_fitted_page_table_stays_within_a_lower_cost_limit(tmp_path):
+    """The review: the page priced its fitted table against its own 4 core-s, not the service's
+    lower limit, so its preview link then answered 413."""
+    import html
+    import re
+
+    settings = Settings(cache_dir=tmp_path, warmup=False, workers=2, max_cost_seconds=0.5)
+    with TestClient(create_app(settings)) as c:
+        assert c.get("/tables/dielectric").status_code == 413  # the default table is over this limit
+        page = c.get("/?table=dielectric")
+        assert page.status_code == 200 and 'id="fitted"' in page.text
+        src = html.unescape(re.search(r'<img id="preview" src="([^"]+)"', page.text).group(1))
+        assert c.get(src).status_code == 200, src

@@ -20,19 +20,28 @@ def _client(app):
     return httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://svc")
 
 
-def _hold(monkeypatch, which=lambda spec: True) -> dict:
-    """tabulate that records its calls and holds those ``which`` selects until ``release`` (or 10 s),
-    without a progress call, so nothing can stop them early."""
+def _hold(monkeypatch, which=lambda spec: True, reporting: bool = False) -> dict:
+    """tabulate that records its calls and holds those ``which`` selects until ``release`` (or 10 s):
+    without a progress call (nothing can stop it early), or ``reporting`` progress every 20 ms."""
     real = service.compute.tabulate
-    state = {"calls": 0, "threads": set(), "tables": [], "release": threading.Event(), "started": threading.Event()}
+    state = {"calls": 0, "threads": set(), "tables": [], "release": threading.Event(), "started": threading.Event(),
+             "stopped": []}
 
-    def held(spec, **kw):
+    def held(spec, progress=None, **kw):
         state["calls"] += 1
         state["threads"].add(threading.current_thread().name)
         state["tables"].append(spec["table"])
         if which(spec):
             state["started"].set()
-            state["release"].wait(10)
+            for i in range(500):
+                if state["release"].wait(0.02 if reporting else 10):
+                    break
+                if reporting and progress is not None:
+                    try:
+                        progress(i, 500)
+                    except BaseException as exc:
+                        state["stopped"].append(str(exc))
+                        raise
         return real(spec, **kw)
 
     monkeypatch.setattr(service.compute, "tabulate", held)
@@ -269,3 +278,120 @@ def test_a_body_that_stalls_is_408_at_the_body_timeout(tmp_path, path):
     assert r.status_code == 408 and r.json()["error"]["param"] == "body", r.text
     assert "within 0.3 s" in r.json()["error"]["message"] and r.headers["connection"] == "close"
     assert took < 2.0, took
+
+
+
+def test_jobs_never_fill_the_synchronous_queue(tmp_path, held_dfg):
+    """The review: jobs counted in the one queue, so queued jobs turned synchronous requests away
+    (503 busy with the synchronous lane idle) and a job that met a full queue failed for good."""
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
+
+    async def main():
+        async with _client(app) as c:
+            ids = [(await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [m], "roughness": [0.5]}}})).json()["id"]
+                   for m in (0.2, 0.4, 0.6)]
+            while not held_dfg["started"].is_set():
+                await asyncio.sleep(0.01)
+            table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            statuses = [(await c.get(f"/jobs/{i}")).json()["status"] for i in ids]
+            held_dfg["release"].set()
+            for _ in range(500):
+                done = [(await c.get(f"/jobs/{i}")).json()["status"] for i in ids]
+                if all(x == "done" for x in done):
+                    break
+                await asyncio.sleep(0.02)
+            return table, statuses, done, (await c.get("/healthz")).json()
+
+    table, statuses, done, health = asyncio.run(main())
+    assert table.status_code == 200, table.text
+    assert "failed" not in statuses and done == ["done"] * 3, (statuses, done)
+    assert health["busy"] == 0 and health["computing"] == 0 and health["running"] == []
+
+
+def test_a_job_joining_a_request_s_computation_is_not_stopped_by_the_request_s_limit(tmp_path, monkeypatch):
+    """The review: a job for the table a synchronous request was computing joined that flight and
+    was killed by the request's 1 s limit. The waiters' largest limit now bounds the computation."""
+    held = _hold(monkeypatch, lambda spec: spec["table"] == "dfg", reporting=True)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_compute_seconds=1, job_max_seconds=60))
+
+    async def main():
+        async with _client(app) as c:
+            sync = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
+            while not held["started"].is_set():
+                await asyncio.sleep(0.01)
+            job = (await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}}})).json()
+            request = await sync  # leaves at its own limit; the job still waits
+            await asyncio.sleep(0.5)
+            held["release"].set()
+            for _ in range(500):
+                status = (await c.get(f"/jobs/{job['id']}")).json()
+                if status["status"] not in ("queued", "running"):
+                    break
+                await asyncio.sleep(0.02)
+            return request, status
+
+    request, status = asyncio.run(main())
+    assert request.status_code == 503 and request.json()["error"]["code"] == "time_limit"
+    assert status["status"] == "done", status
+    assert held["stopped"] == [] and held["tables"] == ["dfg"]  # one computation, never stopped
+
+
+def test_a_retry_after_busy_starts_afresh_and_an_abandoned_queued_table_frees_its_place(tmp_path, held_dfg):
+    """The review: the retry joined the cancelled flight (503 cancelled), and an abandoned queued
+    computation kept its place until a slot reached it (new requests refused)."""
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=1,
+                              max_compute_seconds=1))
+
+    async def main():
+        async with _client(app) as c:
+            first = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
+            while not held_dfg["started"].is_set():
+                await asyncio.sleep(0.01)
+            queued = await c.get("/tables/albedo?mu=0.5&alpha=0.6")  # queued behind dfg, leaves at 1 s
+            await asyncio.sleep(0.1)  # its cancelled task unwinds on the loop's next turns
+            health = (await c.get("/healthz")).json()
+            other = await c.get("/tables/albedo?mu=0.4&alpha=0.6")  # admitted: the abandoned one left the queue
+            held_dfg["release"].set()
+            await first
+            retry = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
+            return queued, health, other, retry
+
+    queued, health, other, retry = asyncio.run(main())
+    assert queued.status_code == 503 and queued.json()["error"]["code"] == "busy"
+    assert [r["state"] for r in health["running"]] == ["running"] and health["queued"] == 0, health["running"]
+    assert other.status_code == 503 and "waited 1 s for a compute slot" in other.json()["error"]["message"]
+    assert retry.status_code == 200, retry.text
+    assert held_dfg["tables"] == ["dfg", "albedo"]  # the abandoned ones never ran
+
+
+def test_a_table_whose_waiters_left_while_it_was_looked_up_never_runs(tmp_path, monkeypatch, held_dfg):
+    """The review: the last waiter left while the computation was still looking in the cache;
+    it then began with no waiter, nobody cancelled it, and it ran to the end."""
+    from service.cache import DiskCache
+    from service.errors import ClientGone
+
+    real_get = DiskCache.get
+
+    def slow_get(self, name, validate=None):
+        if name.endswith(".npz"):
+            time.sleep(0.4)  # a busy disk
+        return real_get(self, name, validate)
+
+    monkeypatch.setattr(DiskCache, "get", slow_get)
+    app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1))
+
+    async def main():
+        store = app.state.store
+        prep = store.prepare({"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}})
+
+        async def gone():
+            return True  # the client has left by the first poll
+
+        with pytest.raises(ClientGone):
+            await store.variant(prep, "exr", client=gone)
+        await asyncio.sleep(1.5)  # past every slow lookup
+        return store.health()
+
+    health = asyncio.run(main())
+    assert held_dfg["tables"] == [] and health["running"] == [] and health["computing"] == 0
+    assert health["queued"] == 0 and health["in_flight"] == 0
