@@ -40,7 +40,6 @@ import re
 import threading
 import time
 from collections import OrderedDict
-from contextlib import contextmanager
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Awaitable, Callable
@@ -58,7 +57,7 @@ from bsdf_tab.table import Table
 from .cache import DiskCache, MemoryLRU, SingleFlight, table_key
 from .errors import ClientGone, ServiceError, cost_error
 from .representations import DERIVE, MASTER
-from .computation import Cancelled, Computation
+from .computation import Cancelled, Computation, Lanes
 from .settings import Settings
 
 __all__ = ["Cancelled", "Computation", "TableStore", "Prepared", "validator"]
@@ -121,7 +120,7 @@ def validator(variant: str, key: str) -> Callable[[bytes], bool] | None:
     return None
 
 
-class TableStore:
+class TableStore(Lanes):
     """Caches + single flight + bounded executors + cost limits around :func:`bsdf_tab.tabulate`."""
 
     def __init__(self, settings: Settings) -> None:
@@ -388,20 +387,6 @@ class TableStore:
             self.memory.put(name, payload)
         return payload
 
-    def _admit(self, lane: str = "sync") -> None:
-        """A place in the synchronous lane's queue, or 503 (one door for tables, scenes and checks).
-
-        Jobs are not refused here: their records are their queue, and their lane waits for them."""
-        if lane == "job":
-            return
-        limit = self.settings.max_concurrent + self.settings.max_queued
-        if self.lanes["sync"] >= limit:
-            self.counters["busy"] += 1
-            raise ServiceError(
-                503, "busy", f"{self.lanes['sync']} computations are running or queued; try again later",
-                headers={"Retry-After": "5"},
-            )
-
     async def _compute(self, prep: Prepared, name: str, limit_seconds: float, lane: str = "sync") -> bytes:
         # a request that finished while we were scheduled (or a peer process) may have stored it
         payload = await self._cache_get(name, validator(MASTER, prep.key))
@@ -431,79 +416,12 @@ class TableStore:
         finally:
             self._end(prep.key, comp)
 
-    def _pool(self, lane: str) -> ThreadPoolExecutor:
-        if lane not in ("sync", "job"):
-            raise ValueError(f"lane must be 'sync' or 'job', got {lane!r}")
-        return self.job_pool if lane == "job" else self.compute_pool
-
-    def _begin(self, key: str, name: str, limit_seconds: float, lane: str = "sync") -> Computation:
-        comp = Computation(name=name, limit_seconds=limit_seconds, lane=lane)
-        with self._lock:
-            comp.waiters = self._waiters.get(key, 0)
-            comp.limit_seconds = max(limit_seconds, self._limits.get(key, 0.0))
-            self.running[key] = comp
-        if comp.waiters == 0:  # its last waiter left while it was being prepared: it never runs
-            comp.cancel("every client waiting for it has gone")
-        self.lanes[lane] += 1
-        return comp
-
-    def _end(self, key: str, comp: Computation) -> None:
-        self.lanes[comp.lane] -= 1
-        with self._lock:
-            if self.running.get(key) is comp:  # a fresh computation of the key may have replaced it
-                del self.running[key]
-
-    @property
-    def waiting(self) -> int:
-        """Computations running or queued, both lanes."""
-        return self.lanes["sync"] + self.lanes["job"]
-
     def _cancelled(self, exc: Cancelled) -> ServiceError:
         timed_out = "wall-clock" in exc.reason
         self.counters["timed_out" if timed_out else "cancelled"] += 1
         log.info("computation stopped: %s", exc.reason)
         return ServiceError(503, "time_limit" if timed_out else "cancelled", f"the computation stopped: {exc.reason}",
                             headers={} if timed_out else {"Retry-After": "1"})
-
-    @contextmanager
-    def _counted(self, comp: Computation, counter: str | None = None):
-        """The thread side of a computation: started (or dropped, if cancelled while queued), counted, timed."""
-        comp.start()
-        with self._lock:
-            self.computing += 1
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            with self._lock:
-                self.computing -= 1
-                self.computations += 1
-                self.compute_seconds += time.perf_counter() - t0
-                if counter is not None:
-                    self.counters[counter] += 1
-
-    async def _in_lane(self, name: str, limit: float, lane: str, work: Callable, *args):
-        """``work(comp, *args)`` in ``lane``'s pool as computation ``name``: admitted (or 503), listed, limited."""
-        self._admit(lane)
-        comp = self._begin(name, name, limit, lane)
-        held = False
-        try:
-            loop = asyncio.get_running_loop()
-            future = loop.run_in_executor(self._pool(lane), work, comp, *args)
-            try:
-                return await asyncio.shield(future)
-            except asyncio.CancelledError:
-                if comp.started is not None:  # it runs on in its thread: it keeps its place until it ends
-                    held = True
-                    future.add_done_callback(lambda _f: self._end(name, comp))
-                else:
-                    future.cancel()  # still queued: never runs
-                raise
-        except Cancelled as exc:
-            raise self._cancelled(exc) from None
-        finally:
-            if not held:
-                self._end(name, comp)
 
     def _compute_and_store(self, prep: Prepared, name: str, comp: Computation) -> bytes:
         t0 = time.perf_counter()
@@ -538,19 +456,6 @@ class TableStore:
             return await self._in_lane(name, limit, lane, self._scene_and_store, name, plan)
 
         return await self.watch(name, self.flight.run(name, produce), client, limit)
-
-    async def run_call(self, label: str, fn: Callable, *args, client=None):
-        """``fn(*args)`` in the synchronous lane, through the tables' door: admitted or 503, seen in
-        ``/healthz``, dropped unstarted when its client leaves, its waiter bounded by
-        ``max_compute_seconds`` (a call cannot be stopped once it runs: keep ``fn`` bounded)."""
-        name = f"{label}-{os.urandom(8).hex()}"
-        limit = self.settings.max_compute_seconds
-        self.counters["checks"] += 1
-        return await self.watch(name, self._in_lane(name, limit, "sync", self._call, fn, args), client, limit)
-
-    def _call(self, comp: Computation, fn: Callable, args: tuple):
-        with self._counted(comp):
-            return fn(*args)
 
     def _scene_and_store(self, comp: Computation, name: str, plan) -> bytes:
         steps = [0]
