@@ -12,6 +12,11 @@ angle) to a fractional texel index ``t`` in ``[0, n - 1]``:
 - ``nodes`` axes (irregular explicit values, e.g. an IOR axis): ``t = i + (x - x_i) /
   (x_{i+1} - x_i)`` between the bracketing nodes (linear in x).
 
+An axis may be stored in decreasing order (Godot's roughness rows, EEVEE's ``NV = 1 - y^2``):
+a uniform axis then has ``range = (hi, lo)`` in node order (node 0 at ``hi``, a negative
+scale), a ``nodes`` axis its values in decreasing order (bracketed with ``x_{i+1} <= x <=
+x_i``); the coordinate is clamped to ``[min, max]`` of the axis either way.
+
 ``t`` is clamped to ``[0, n - 1]`` (the table's ends are held, never extrapolated). The value
 is the multilinear interpolation in ``t`` (:func:`bsdf_tab.scene.lookup`, the one
 interpolation routine of the package). :func:`lookup_plan` reads the mapping from the spec
@@ -50,9 +55,10 @@ class AxisMap:
     spacing, nodes : str
         ``linear`` / ``square``; ``endpoints`` / ``centers`` / ``left`` (uniform axes).
     range : tuple of float
-        ``(lo, hi)`` of the uniform grid (before any clamp).
+        ``(g^-1(u = 0), g^-1(u = 1))`` of the uniform grid (before any clamp), in node order:
+        ``(lo, hi)`` for an increasing axis, ``(hi, lo)`` for a decreasing one.
     clamp : tuple of float or None
-        The clamp applied to the node values when baked.
+        The clamp applied to the node values when baked, ``(min, max)``.
     values : tuple of float
         The node values (as baked, clamp included).
     """
@@ -75,8 +81,23 @@ class AxisMap:
         """The lookup function's parameter for this axis."""
         return PARAM_NAMES.get(self.name, self.name)
 
+    @property
+    def decreasing(self) -> bool:
+        """Whether the nodes decrease with the index (a reversed range, or decreasing values)."""
+        if self.size < 2:
+            return False
+        if self.kind == "nodes":
+            return self.values[-1] < self.values[0]
+        return self.range[1] < self.range[0]
+
+    def bounds(self) -> tuple[float, float]:
+        """``(min, max)`` the coordinate is clamped to: the range (uniform) or the end nodes."""
+        ends = (self.values[0], self.values[-1]) if self.kind == "nodes" else self.range
+        return (float(min(ends)), float(max(ends)))
+
     def scale_offset(self) -> tuple[float, float, float, float]:
-        """``(g(lo), g(hi), scale, offset)``: ``t = (g(x) - g(lo)) * scale + offset`` (uniform axes)."""
+        """``(g(r0), g(r1), scale, offset)``: ``t = (g(x) - g(r0)) * scale + offset`` (uniform axes),
+        ``(r0, r1) = range`` in node order (scale < 0 on a decreasing axis)."""
         g = math.sqrt if self.spacing == "square" else float
         glo, ghi = g(self.range[0]), g(self.range[1])
         n = self.size
@@ -90,15 +111,18 @@ class AxisMap:
         n = self.size
         if n == 1:
             return np.zeros(x.shape)
+        lo, hi = self.bounds()
+        xc = np.clip(x, lo, hi)
         if self.kind == "nodes":
-            v = np.asarray(self.values)
-            xc = np.clip(x, v[0], v[-1])
-            i = np.clip(np.searchsorted(v, xc, side="right") - 1, 0, n - 2)
-            t = i + (xc - v[i]) / (v[i + 1] - v[i])
+            v = np.asarray(self.values, dtype=np.float64)
+            # the last node i with v_i <= x (increasing) or v_i >= x (decreasing: search in -v)
+            w, xw = (-v, -xc) if self.decreasing else (v, xc)
+            i = np.clip(np.searchsorted(w, xw, side="right") - 1, 0, n - 2)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                frac = np.clip((xc - v[i]) / (v[i + 1] - v[i]), 0.0, 1.0)
+            t = i + np.nan_to_num(frac)
         else:
             glo, ghi, scale, offset = self.scale_offset()
-            lo, hi = self.range
-            xc = np.clip(x, min(lo, hi), max(lo, hi))
             g = np.sqrt(xc) if self.spacing == "square" else xc
             t = (g - glo) * scale + offset
         return np.clip(t, 0.0, n - 1.0)
@@ -119,13 +143,22 @@ class AxisMap:
         if self.size == 1:
             return "t = 0 (one node)"
         if self.kind == "nodes":
-            return f"t = i + ({p} - x_i) / (x_(i+1) - x_i) between the bracketing nodes (linear in {p})"
+            lo, hi = self.bounds()
+            order = (f"decreasing nodes: x_(i+1) <= {p} <= x_i" if self.decreasing
+                     else f"x_i <= {p} <= x_(i+1)")
+            return (f"t = i + ({p} - x_i) / (x_(i+1) - x_i) between the bracketing nodes ({order}; linear in "
+                    f"{p}, clamped to [{lo:.9g}, {hi:.9g}])")
         glo, ghi, scale, offset = self.scale_offset()
-        g = f"sqrt({p})" if self.spacing == "square" else p
-        shifted = g if glo == 0.0 else f"({g} - {glo:.9g})"
+        lo, hi = self.bounds()
+        g = f"sqrt(clamp({p}, {lo:.9g}, {hi:.9g}))" if self.spacing == "square" else f"clamp({p}, {lo:.9g}, {hi:.9g})"
+        if scale < 0:
+            shifted = f"({glo:.9g} - {g})"
+        else:
+            shifted = g if glo == 0.0 else f"({g} - {glo:.9g})"
         off = "" if offset == 0 else f" - {-offset:g}"
-        return (f"t = clamp({shifted} * {scale:.9g}{off}, 0, {self.size - 1})  "
-                f"({self.nodes} nodes on {self.name} in [{self.range[0]:.9g}, {self.range[1]:.9g}]"
+        order = ", decreasing: node 0 at the first end" if scale < 0 else ""
+        return (f"t = clamp({shifted} * {abs(scale):.9g}{off}, 0, {self.size - 1})  "
+                f"({self.nodes} nodes on {self.name} from {self.range[0]:.9g} to {self.range[1]:.9g}{order}"
                 + (f", node values clamped to [{self.clamp[0]:.9g}, {self.clamp[1]:.9g}]" if self.clamp else "")
                 + ")")
 
@@ -140,14 +173,16 @@ def fit_axis(name: str, values) -> AxisMap:
 
     The two end nodes may be clamped (Cycles' 1e-4 ends): the grid is fitted to the interior
     nodes and an end that is off the grid becomes the clamp. Of the node conventions that give
-    the same grid, the one with the roundest range wins (endpoints first).
+    the same grid, the one with the roundest range wins (endpoints first). Decreasing values
+    (Godot's roughness rows) give a uniform axis with ``range = (hi, lo)`` (node order) or a
+    ``nodes`` axis with the values as they are.
 
     Parameters
     ----------
     name : str
         The axis name.
     values : array_like
-        The node values, increasing.
+        The node values, increasing or decreasing.
 
     Returns
     -------
@@ -166,19 +201,22 @@ def fit_axis(name: str, values) -> AxisMap:
         b, a = np.polyfit(i[inner], y[inner], 1)
         tol = 1e-9 * max(abs(b) * n, 1e-300)
         fit = a + b * i
-        if b <= 0 or np.abs(y[inner] - fit[inner]).max() > tol:
+        if b == 0 or np.abs(y[inner] - fit[inner]).max() > tol:
             continue
+        sign = 1.0 if b > 0 else -1.0  # decreasing values: the grid runs from the high end
         lo_ok, hi_ok = abs(y[0] - fit[0]) <= tol, abs(y[-1] - fit[-1]) <= tol
-        if not (lo_ok or y[0] > fit[0]) or not (hi_ok or y[-1] < fit[-1]):
+        if not (lo_ok or sign * (y[0] - fit[0]) > 0) or not (hi_ok or sign * (y[-1] - fit[-1]) < 0):
             continue  # an end off the grid must be clamped inward
         best = None
         for nodes, (g0, g1) in (("endpoints", (a, a + b * (n - 1))), ("centers", (a - b / 2, a + b * (n - 0.5))),
                                 ("left", (a, a + b * n))):
-            if spacing == "square" and g0 < -tol:
+            if spacing == "square" and min(g0, g1) < -tol:
                 continue
             score = _nice(g0) + _nice(g1)
             if best is None or score < best[0] - 1e-12:
                 best = (score, nodes, g0, g1)
+        if best is None:
+            continue
         _, nodes, g0, g1 = best
         # snap round ends (a range of [0, 1] fitted as 1e-17 .. 0.99999999)
         g0, g1 = (round(v * 2) / 2 if _nice(v) < 1e-9 else v for v in (g0, g1))
@@ -187,6 +225,7 @@ def fit_axis(name: str, values) -> AxisMap:
         if not (lo_ok and hi_ok):
             clamp = (float(x[0]) if not lo_ok else float(inv(g0) if nodes == "endpoints" else x[0]),
                      float(x[-1]) if not hi_ok else float(inv(g1) if nodes == "endpoints" else x[-1]))
+            clamp = (min(clamp), max(clamp))
         return AxisMap(name, n, "uniform", spacing, nodes, (float(inv(g0)), float(inv(g1))), clamp,
                        tuple(map(float, x)))
     return AxisMap(name, n, "nodes", values=tuple(map(float, x)))
@@ -254,6 +293,10 @@ def lookup_plan(table) -> LookupPlan:
     spec_axes = spec.get("axes") if isinstance(spec.get("axes"), dict) else {}
     axes = []
     for name, values in table.axes.items():
+        steps = np.diff(np.asarray(values, dtype=np.float64))
+        if steps.size and not ((steps >= 0).all() or (steps <= 0).all()) or (steps.size and not steps.any()):
+            raise ValueError(f"lookup: axis {name!r} is neither increasing nor decreasing; "
+                             "lookup code needs monotonic axis values")
         axis = spec_axes.get(name)
         if isinstance(axis, dict) and "size" in axis and axis.get("spacing") in ("linear", "square"):
             axes.append(_from_spec(name, axis, np.asarray(values)))

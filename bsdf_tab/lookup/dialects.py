@@ -2,8 +2,9 @@
 
 A :class:`Dialect` turns the language-neutral steps of :mod:`bsdf_tab.lookup.emit` into source
 text. Shading languages (GLSL, HLSL, WGSL) read the table as a texture in the file's image
-layout with exact texel loads (``texelFetch`` / ``Load`` / ``textureLoad``: no filtering, no
-sampler state to get wrong); C and Warp read one array per value channel in axis order.
+layout (a 1-D, 2-D or 3-D texture, or a 2-D image with 3-D slices stacked) with exact texel
+loads (``texelFetch`` / ``Load`` / ``textureLoad``: no filtering, no sampler state to get
+wrong); C and Warp read one array per value channel in axis order.
 """
 
 from __future__ import annotations
@@ -94,7 +95,9 @@ class Dialect:
     def select(self, cond: str, a: str, b: str) -> str:
         return f"({cond} ? {a} : {b})"
 
-    def fetch(self, ctx, x: str, y: str, index: list[str]) -> str:
+    def fetch(self, ctx, coords: list[str], index: list[str]) -> str:
+        """The load of one texel: ``coords`` (x[, y[, z]]) in the texture (shading languages),
+        ``index`` the node index per table axis (C, Warp)."""
         raise NotImplementedError
 
     def lut_params(self, ctx) -> list[tuple[str, str]]:
@@ -109,10 +112,11 @@ class GLSL(Dialect):
         return "float" if n == 1 else f"vec{n}"
 
     def lut_params(self, ctx):
-        return [("lut", "sampler2D")]
+        return [("lut", f"sampler{ctx.tex_dims}D")]
 
-    def fetch(self, ctx, x, y, index):
-        return f"texelFetch(lut, ivec2({x}, {y}), 0).{_SWIZZLE[:ctx.nch]}"
+    def fetch(self, ctx, coords, index):
+        at = coords[0] if len(coords) == 1 else f"ivec{len(coords)}({', '.join(coords)})"
+        return f"texelFetch(lut, {at}, 0).{_SWIZZLE[:ctx.nch]}"
 
 
 class HLSL(Dialect):
@@ -133,10 +137,10 @@ class HLSL(Dialect):
         return f"static const float {name}[{len(values)}] = {{{body}}};"
 
     def lut_params(self, ctx):
-        return [("lut", "Texture2D<float4>")]
+        return [("lut", f"Texture{ctx.tex_dims}D<float4>")]
 
-    def fetch(self, ctx, x, y, index):
-        return f"lut.Load(int3({x}, {y}, 0)).{_SWIZZLE[:ctx.nch]}"
+    def fetch(self, ctx, coords, index):
+        return f"lut.Load(int{len(coords) + 1}({', '.join(coords)}, 0)).{_SWIZZLE[:ctx.nch]}"
 
 
 class WGSL(Dialect):
@@ -174,10 +178,11 @@ class WGSL(Dialect):
         return f"select({b}, {a}, {cond})"
 
     def lut_params(self, ctx):
-        return [("lut", "texture_2d<f32>")]
+        return [("lut", f"texture_{ctx.tex_dims}d<f32>")]
 
-    def fetch(self, ctx, x, y, index):
-        return f"textureLoad(lut, vec2<i32>({x}, {y}), 0).{_SWIZZLE[:ctx.nch]}"
+    def fetch(self, ctx, coords, index):
+        at = coords[0] if len(coords) == 1 else f"vec{len(coords)}<i32>({', '.join(coords)})"
+        return f"textureLoad(lut, {at}, 0).{_SWIZZLE[:ctx.nch]}"
 
 
 class C(Dialect):
@@ -217,7 +222,7 @@ class C(Dialect):
     def lut_params(self, ctx):
         return [(c, "const float *") for c in ctx.channel_params]
 
-    def fetch(self, ctx, x, y, index):
+    def fetch(self, ctx, coords, index):
         flat = ctx.flat_index(index)
         return [f"{c}[{flat}]" for c in ctx.channel_params]
 
@@ -283,7 +288,7 @@ class Warp(Dialect):
     def lut_params(self, ctx):
         return [(c, f"wp.array{ctx.ndim}d(dtype=wp.float32)") for c in ctx.channel_params]
 
-    def fetch(self, ctx, x, y, index):
+    def fetch(self, ctx, coords, index):
         parts = [f"{c}[{', '.join(index)}]" for c in ctx.channel_params]
         return parts[0] if ctx.nch == 1 else f"wp.vec{ctx.nch}({', '.join(parts)})"
 
