@@ -181,7 +181,8 @@ def _compute_and_write(args: argparse.Namespace, spec: dict, out: Path, fmt: str
         blocks = api.iter_blocks(spec, device=args.device, workers=args.workers, progress=not args.quiet,
                                  scheduler=client)
         table = io.write_stream(blocks, out, fmt)
-        print(summary(out, table))
+        storage = table.meta.get("storage")
+        print(summary(out, table) + (storage_words(storage) if isinstance(storage, dict) else ""))
         return 0
     table = api.tabulate(spec, device=args.device, workers=args.workers, progress=not args.quiet,
                          scheduler=client)

@@ -44,21 +44,52 @@ def info_lines(path: Path, table) -> list[str]:
     lines.append("axes:")
     for name, values in table.axes.items():
         lines.append(f"  {name:<10} size {len(values):<5} min {values.min():.6g}  max {values.max():.6g}")
-    lines.append(f"channels: {', '.join(table.channels)}")
+    storage = meta.get("storage") if isinstance(meta.get("storage"), dict) else {}
+    rebuilt = _rebuilt_error_channels(path, table)
+    if rebuilt:
+        stored = [n for n in table.channels if n not in rebuilt]
+        lines.append(f"channels: {', '.join(stored)}; {', '.join(rebuilt)} not stored, rebuilt from the "
+                     "storage bound in the metadata (the max over texels, the same at every texel)")
+    else:
+        lines.append(f"channels: {', '.join(table.channels)}")
     lines.append("conventions:")
     lines.extend(_format_mapping(meta.get("conventions", "not recorded")))
     method = meta.get("method", spec.get("method", "not recorded"))
     if isinstance(method, dict):
         lines.append(f"method: {method.get('name', '')}".rstrip())
-        lines.extend(_format_mapping({k: v for k, v in method.items() if k != "name"}))
+        details = {k: v for k, v in method.items() if k != "name"}
+        if "precision" in details and storage.get("encoding"):
+            details["precision"] = _stored_precision(details["precision"], storage)
+        lines.extend(_format_mapping(details))
     else:
         lines.append(f"method: {method}")
     errors = table.max_error()
-    lines.append("max error:")
+    lines.append("max error (stored bound, from the metadata):" if rebuilt else "max error:")
     lines.extend([f"  {name}: {err:.3g}" for name, err in errors.items()] or ["  no error channels"])
     lines.extend(storage_lines(meta.get("storage")))
     lines.append(f"version: {meta.get('version', 'not recorded')}")
     return lines
+
+
+def _rebuilt_error_channels(path: Path, table) -> list[str]:
+    """The error channels of ``table`` that its file (a GPU texture) does not store."""
+    from ..io import format_for
+    from ..io.texture import TEXTURE_FORMATS
+
+    try:
+        fmt = format_for(path).name
+    except ValueError:
+        return []
+    if fmt not in TEXTURE_FORMATS:
+        return []
+    return [n for n in table.channels if n.endswith("_err")]
+
+
+def _stored_precision(computed, storage: dict) -> str:
+    """``float64 (stored as float16, ktx2)``: the method's computing precision and the file's storage."""
+    head = str(computed).split(" (stored as", 1)[0]
+    where = f", {storage['format']}" if storage.get("format") else ""
+    return f"{head} (stored as {storage['encoding']}{where})"
 
 
 def _num(value) -> str:

@@ -23,6 +23,7 @@ import numpy as np
 
 from .base import ERR_SUFFIX, Format, build, value_channels
 from .exr import ATTR_PREFIX, header_attributes, image_shape, read_exr, read_exr_bytes, write_image
+from .storage import check_range
 
 __all__ = ["FORMAT", "HALF_MAX", "half_rounding", "to_half", "write_half_exr", "half_exr_bytes"]
 
@@ -66,15 +67,15 @@ def to_half(table, factory: Callable | None = None):
     Raises
     ------
     ValueError
-        If a finite value is beyond the half range (|x| > 65504).
+        If a finite value is beyond the half range (|x| > 65504): one line naming the
+        channel and its largest magnitude (:func:`bsdf_tab.io.storage.check_range`).
     """
+    check_range(table, "float16", "write float32 instead (.exr, --format exr)")
     channels: dict[str, np.ndarray] = {}
     rounding: dict[str, float] = {}
     for name in value_channels(table.channels):
         x = np.asarray(table.channels[name], dtype=np.float64)
         finite = np.isfinite(x)
-        if (np.abs(x[finite]) > HALF_MAX).any():
-            raise ValueError(f"channel {name}: values beyond the float16 range (|x| > {HALF_MAX:g})")
         err = np.where(finite, half_rounding(x), 0.0)
         rounding[name] = float(err.max()) if err.size else 0.0
         channels[name] = x.astype(np.float16)

@@ -8,8 +8,11 @@ image layout is EXR's (:mod:`bsdf_tab.io.texture`; 3-D tables stack the axis-0 s
 vertically), the top row first: row 0 = axis 0, index 0, at texture coordinate v = 0.5 / height
 when uploaded without a vertical flip.
 
-No ``gAMA``, ``sRGB``, ``cHRM`` or ``iCCP`` chunk: the samples are data, to be read as linear
-values (load with colour-space conversion off). ``tEXt`` chunks carry the metadata of
+The samples are data, to be read as linear values (load with colour-space conversion off), and
+the file says so: a ``cICP`` chunk (PNG 3rd edition: colour primaries 1 = BT.709, transfer
+characteristics 8 = linear, matrix 0 = RGB/identity, full range) and, for readers that predate
+it, ``gAMA`` = 100000 (gamma 1.0, linear); no ``sRGB`` or ``iCCP`` chunk, so nothing applies
+the sRGB curve. ``tEXt`` chunks carry the metadata of
 :func:`bsdf_tab.io.texture.metadata_strings` (``bsdf_tab_axes``, ``bsdf_tab_lookup``,
 ``bsdf_tab_meta`` with ``storage``, ...), so :func:`read_png` gives the table back.
 """
@@ -29,10 +32,14 @@ from .exr import image_shape
 from .storage import as_encoded, encode, get_encoding, requested_encoding, storage_report
 from .texture import metadata_strings, parts_from_metadata, table_from_texels, texel_array
 
-__all__ = ["FORMAT", "SIGNATURE", "png_bytes", "png_from_bytes", "read_png", "write_png"]
+__all__ = ["CICP_LINEAR", "FORMAT", "GAMA_LINEAR", "SIGNATURE", "png_bytes", "png_from_bytes", "read_png", "write_png"]
 
 #: The 8-byte PNG signature.
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: ``cICP`` body: BT.709 primaries, linear transfer (H.273 TransferCharacteristics 8), RGB, full range.
+CICP_LINEAR = bytes([1, 8, 0, 1])
+#: ``gAMA`` body value: image gamma 1.0 times 100000 (linear samples).
+GAMA_LINEAR = 100000
 _COLOUR_TYPE = {1: 0, 2: 2, 3: 2, 4: 6}
 _SAMPLES = {0: 1, 2: 3, 6: 4}
 
@@ -67,9 +74,11 @@ def png_bytes(table, encoding: str | None = None) -> bytes:
     meta = dict(table.meta)
     meta["storage"] = storage_report(table, encoding, "png")
     text = b"".join(_chunk(b"tEXt", k.encode("latin-1") + b"\0" + v.encode("latin-1", "backslashreplace"))
-                    for k, v in metadata_strings(table.axes, names, meta).items())
+                    for k, v in metadata_strings(table.axes, names, meta, "stacked").items())
     ihdr = struct.pack(">IIBBBBB", width, height, enc.bits, colour, 0, 0, 0)
-    return SIGNATURE + _chunk(b"IHDR", ihdr) + text + _chunk(b"IDAT", zlib.compress(raw, 9)) + _chunk(b"IEND", b"")
+    colour_chunks = _chunk(b"cICP", CICP_LINEAR) + _chunk(b"gAMA", struct.pack(">I", GAMA_LINEAR))
+    return (SIGNATURE + _chunk(b"IHDR", ihdr) + colour_chunks + text + _chunk(b"IDAT", zlib.compress(raw, 9))
+            + _chunk(b"IEND", b""))
 
 
 def write_png(table, path, encoding: str | None = None) -> list[Path]:

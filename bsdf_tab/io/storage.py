@@ -21,6 +21,12 @@ table's error bound is their texel-wise sum, ``max(X_err + |q(x) - x|)``
 smallest encoding (bytes per texel) whose bound stays within a tolerance
 (``--precision auto``).
 
+A float encoding never stores a finite value as an infinity: :func:`check_range` refuses a
+channel with a finite value beyond the largest finite float16 (65504) or float32, and every
+writer of a float encoding (``ktx2``, ``dds``, :func:`as_encoded`; ``half-exr`` alike) calls it
+first. :func:`storage_report` still measures such a channel (its storage error is ``inf``, so
+:func:`choose_encoding` never picks that encoding).
+
 The report is what ``meta["storage"]`` holds in every file ``bsdf-tab bake`` writes, what
 ``bsdf-tab info`` prints and what the service's info returns
 (:func:`storage_report_for_format` for a registry format name).
@@ -40,6 +46,8 @@ __all__ = [
     "Encoding",
     "FORMAT_STORAGE",
     "as_encoded",
+    "bytes_per_texel",
+    "check_range",
     "choose_encoding",
     "encode",
     "get_encoding",
@@ -114,6 +122,39 @@ FORMAT_STORAGE: dict[str, tuple[str, ...]] = {
 }
 
 
+def check_range(table, encoding: str, remedy: str | None = None) -> None:
+    """Refuse a table that ``encoding`` cannot store without turning a finite value into an infinity.
+
+    For ``float16`` and ``float32``: every finite value of every value channel must be within
+    the largest finite value of the encoding (65504 for float16). UNORM encodings clamp (the
+    clamp is measured and reported, :func:`storage_report`), so nothing is refused.
+
+    Parameters
+    ----------
+    remedy : str, optional
+        What the message suggests (default: store float32 with ``--precision float32``).
+
+    Raises
+    ------
+    ValueError
+        One line naming the channel, its largest magnitude and the remedy.
+    """
+    enc = get_encoding(encoding)
+    if enc.kind != "float":
+        return
+    limit = float(np.finfo(np.float16 if enc.bits == 16 else np.float32).max)
+    if remedy is None:
+        remedy = ("store float32 (--precision float32, or a float32 format: exr)" if enc.bits == 16
+                  else "rescale the channel (float32 holds |x| <= 3.4e38)")
+    for name in value_channels(table.channels):
+        x = np.asarray(table.channels[name], dtype=np.float64)
+        finite = x[np.isfinite(x)]
+        big = float(np.max(np.abs(finite))) if finite.size else 0.0
+        if big > limit:
+            raise ValueError(f"channel {name}: values beyond the {encoding} range "
+                             f"(max |x| {big:.6g} > {limit:g}); {remedy}")
+
+
 def get_encoding(name: str) -> Encoding:
     """The encoding ``name``; ValueError listing the known ones."""
     try:
@@ -131,7 +172,8 @@ def requested_encoding(table, fmt: str) -> str:
     return wanted if wanted in choices else choices[0]
 
 
-def _bytes_per_texel(encoding: str, n_channels: int) -> int:
+def bytes_per_texel(encoding: str, n_channels: int) -> int:
+    """Bytes per texel of ``n_channels`` channels stored as ``encoding`` (GPU formats: 1, 2 or 4 components)."""
     if encoding == "unorm10":  # A2B10G10R10: up to 3 channels in 32 bits
         return 4 * -(-n_channels // 3)
     if encoding == "float64":
@@ -196,7 +238,7 @@ def storage_report(table, encoding: str, fmt: str | None = None) -> dict:
     return {
         "encoding": encoding,
         "format": fmt,
-        "bytes_per_texel": _bytes_per_texel(encoding, len(names)),
+        "bytes_per_texel": bytes_per_texel(encoding, len(names)),
         "channels": channels,
         "max_total_error": max(totals) if totals else 0.0,
     }
@@ -261,8 +303,14 @@ def as_encoded(table, encoding: str, fmt: str, factory: Callable | None = None):
     Value channels become q(x); each error channel ``X_err`` becomes ``X_err + |q(x) - x|`` (a
     bound on the stored value's error); ``meta["storage"]`` is the :func:`storage_report` and
     ``meta["max_error"]`` the stored bounds.
+
+    Raises
+    ------
+    ValueError
+        If a finite value is beyond the range of a float ``encoding`` (:func:`check_range`).
     """
     enc = get_encoding(encoding)
+    check_range(table, encoding)
     channels = {}
     for name, arr in table.channels.items():
         channels[name] = np.asarray(arr, dtype=np.float64)

@@ -30,10 +30,11 @@ import numpy as np
 import OpenEXR
 
 from .atomic import atomic_path, temp_path
-from .base import FormatError, TableParts, check_folder
+from .base import ERR_SUFFIX, FormatError, TableParts, check_folder, value_channels
 from .exr import COMPRESSION, header_attributes, image_shape, write_exr
 from .npz import head_members, tail_members
 from .registry import format_for
+from .storage import FORMAT_STORAGE, bytes_per_texel, get_encoding
 
 __all__ = ["STREAM_FORMATS", "StreamedTable", "can_stream", "write_blocks", "write_stream"]
 
@@ -313,10 +314,65 @@ def write_stream(stream, path, fmt: str | None = None) -> StreamedTable:
     axes = stream.axes
     names = list(stream.channel_names)
     per_slice = math.prod(len(a) for a in list(axes.values())[1:])
+    name = _stream_format(Path(path), fmt)
+    meter = _StorageMeter(names, FORMAT_STORAGE[name][0], name)
 
     def blocks():
         for start, _end, channels in stream:
+            meter.add(channels)
             yield start * per_slice, channels
 
-    meta = write_blocks(path, axes, names, blocks(), stream.meta, fmt=fmt)
+    def meta() -> dict:
+        out = dict(stream.meta() if callable(stream.meta) else stream.meta)
+        out.setdefault("storage", meter.report())
+        return out
+
+    meta = write_blocks(path, axes, names, blocks(), meta, fmt=name)
     return StreamedTable(dict(axes), meta, names)
+
+
+class _StorageMeter:
+    """:func:`bsdf_tab.io.storage.storage_report` of a table seen block by block (same keys)."""
+
+    def __init__(self, names: list[str], encoding: str, fmt: str) -> None:
+        self.encoding, self.fmt = encoding, fmt
+        self.enc = None if encoding == "float64" else get_encoding(encoding)
+        self.values = value_channels(names)
+        self.has_err = {n: n + ERR_SUFFIX in names for n in self.values}
+        self.acc = {n: {"integration_error": None, "storage_error": 0.0, "clamp_error": 0.0, "total_error": 0.0,
+                        "min": None, "max": None} for n in self.values}
+
+    def add(self, channels: Mapping) -> None:
+        for n in self.values:
+            x = np.asarray(channels[n], dtype=np.float64)
+            if not x.size:
+                continue
+            c = self.acc[n]
+            finite = np.isfinite(x)
+            if self.enc is None:
+                stored = np.zeros_like(x)
+            else:
+                with np.errstate(invalid="ignore"):
+                    stored = np.where(finite, np.abs(self.enc.quantize(x) - x), np.inf)
+            total = stored
+            if self.has_err[n]:
+                err = np.asarray(channels[n + ERR_SUFFIX], dtype=np.float64)
+                e = float(np.max(err))
+                c["integration_error"] = e if c["integration_error"] is None else max(c["integration_error"], e)
+                total = stored + err
+            c["storage_error"] = max(c["storage_error"], float(np.max(stored)))
+            c["total_error"] = max(c["total_error"], float(np.max(total)))
+            if finite.any():
+                lo, hi = float(np.min(x[finite])), float(np.max(x[finite]))
+                c["min"] = lo if c["min"] is None else min(c["min"], lo)
+                c["max"] = hi if c["max"] is None else max(c["max"], hi)
+
+    def report(self) -> dict:
+        totals = [c["total_error"] for c in self.acc.values()]
+        return {
+            "encoding": self.encoding,
+            "format": self.fmt,
+            "bytes_per_texel": bytes_per_texel(self.encoding, len(self.values)),
+            "channels": {n: dict(c) for n, c in self.acc.items()},
+            "max_total_error": max(totals) if totals else 0.0,
+        }

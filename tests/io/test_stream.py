@@ -229,5 +229,18 @@ def test_write_stream_takes_slabs_of_channel_dicts(tmp_path):
     assert isinstance(result, bio.StreamedTable)
     assert result.kind == "bsdf" and result.shape == (5, 2, 3)
     assert result.max_error() == table.meta["max_error"]
-    bio.write(table, tmp_path / "memory.exr")
+    # the stream measured the float32 rounding, as numpy does it (what `bake` prints for an EXR)
+    report = result.meta["storage"]
+    assert report["encoding"] == "float32" and report["format"] == "exr"
+    for c in ("f_r", "f_t"):
+        x = table.channels[c]
+        rounding = np.abs(x.astype(np.float32).astype(np.float64) - x)
+        assert report["channels"][c]["storage_error"] == rounding.max() > 0
+        assert report["channels"][c]["total_error"] == (rounding + table.channels[c + "_err"]).max()
+        assert report["channels"][c]["integration_error"] == table.channels[c + "_err"].max()
+        assert (report["channels"][c]["min"], report["channels"][c]["max"]) == (x.min(), x.max())
+    # byte for byte the file the in-memory path writes (bake adds the same report there)
+    memory = Table(table.axes, table.channels, {**table.meta, "storage": report})
+    bio.write(memory, tmp_path / "memory.exr")
     assert (tmp_path / "w.exr").read_bytes() == (tmp_path / "memory.exr").read_bytes()
+    assert Table.read(tmp_path / "w.exr").meta["storage"] == report
