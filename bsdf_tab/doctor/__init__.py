@@ -11,18 +11,20 @@ candidate tables, baked through :func:`bsdf_tab.api.tabulate` and cached), :mod:
 (the Schlick-GGX candidate, by the doctor's own quadrature), :mod:`.fit` (the 2-D hypotheses and
 the search), :mod:`.check` (the exact check, the findings), :mod:`.report`; for 1-D averages and
 3-D glass tables :mod:`.glass` (candidates), :mod:`.nd` (hypotheses, search), :mod:`.ndcheck`
-(check, findings, :class:`NDReport`); :mod:`.storage` (what both share).
+(check, findings, :class:`NDReport`); :mod:`.storage` (what both share); :mod:`.claims` (what a
+bsdf-tab file claims to be, and :class:`ClaimReport` for claimed kinds the doctor does not fit).
 The command line is ``bsdf-tab check`` (:mod:`bsdf_tab.cli.check`), the service ``POST /check``.
 """
 
 from __future__ import annotations
 
 from .check import MU_CLAMPS, check_image, check_lut, check_lut_bytes
+from .claims import FITTED_KINDS, ClaimReport, claimed_kind
 from .exact import CACHE_ENV, MODELS, cache_dir
 from .readers import ARRAY_VALUES, LutImage, LutReadError, read_lut, read_lut_bytes, srgb_decode, srgb_encode
 from .ndcheck import NDReport
 from .report import Report, table_kind
 
-__all__ = ["ARRAY_VALUES", "CACHE_ENV", "LutImage", "LutReadError", "MODELS", "MU_CLAMPS", "NDReport", "Report", "cache_dir",
-           "check_image", "check_lut", "check_lut_bytes", "read_lut", "read_lut_bytes", "srgb_decode", "srgb_encode",
+__all__ = ["ARRAY_VALUES", "CACHE_ENV", "ClaimReport", "FITTED_KINDS", "LutImage", "LutReadError", "MODELS", "MU_CLAMPS", "NDReport", "Report", "cache_dir",
+           "check_image", "check_lut", "check_lut_bytes", "claimed_kind", "read_lut", "read_lut_bytes", "srgb_decode", "srgb_encode",
            "table_kind"]

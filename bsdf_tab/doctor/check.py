@@ -16,17 +16,20 @@ says how many texels were checked), and from the residual against that exact tab
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..lookup import fit_axis
 from .exact import exact_at
 from .fit import NODE_FORMULA, NODE_TYPES, Hypothesis, encodings, even_indices, search
+from .claims import axis_orders, check_claimed, claimed_kind, identified_as
 from .readers import LutImage, LutReadError, read_lut, read_lut_bytes
 from .nd import claimed_axes as file_axes, search_nd
 from .ndcheck import check_nd
 from .report import Report
 from .storage import BITS as _BITS
-from .storage import MU_CLAMPS, drop_guesses, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
+from .storage import MU_CLAMPS, drop_guesses, out_of_unit, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
 
 __all__ = ["MU_CLAMPS", "check_image", "check_lut", "check_lut_bytes"]
 
@@ -46,10 +49,11 @@ def _claimed_axes(img: LutImage, expect_axes) -> list[dict] | None:
         axes = [[name, values] for name, values in axes.items()]
     if isinstance(axes, list) and len(axes) == 2 and all(isinstance(a, list) and len(a) == 2 for a in axes):
         out = []
-        for name, values in axes:
-            a = fit_axis(str(name), values)
+        orders = axis_orders(img.claims, img.data.shape[:-1]) or [(None, None)] * 2
+        for (name, values), (_, order) in zip(axes, orders):
+            a = fit_axis(str(name), values if order != "decreasing" else list(values)[::-1])
             out.append({"name": name, "spacing": {"square": "sqrt"}.get(a.spacing, a.spacing) if a.kind == "uniform" else None,
-                        "nodes": a.nodes if a.kind == "uniform" else None})
+                        "nodes": a.nodes if a.kind == "uniform" else None, "order": order})
         return out
     return None
 
@@ -66,6 +70,12 @@ TRY_AVG_ABOVE = 4e-3
 def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut"):
     """Identify a LUT already read (see :func:`check_lut`): 2-D LUTs here, 1-D averages and 3-D
     dielectric tables (and 2-D ones the (mu, roughness) kinds do not fit) in :mod:`.ndcheck`."""
+    claim = claimed_kind(img.claims)
+    if claim is not None and not claim["fitted"]:  # a kind the doctor has no candidate for: never "identified"
+        return check_claimed(img, claim, expect_axes=expect_axes, heatmap=heatmap, name=name)
+    if not np.isfinite(img.data).all():  # infinite texels (a float16 overflow) are left out of the fit as NaN are
+        img = replace(img, data=np.where(np.isfinite(img.data), img.data, np.nan),
+                      infinite=img.infinite + int(np.isinf(img.data).sum()))
     data = img.data
     if data.ndim == 3 and data.shape[0] == 1:  # a 1-D texture stored as one row
         data = data[0]
@@ -80,17 +90,34 @@ def check_image(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "l
                            f"({', '.join(map(str, expect_axes))})", "axes")
     if data.ndim != 3:
         kind = "albedo_avg" if data.ndim == 2 else "dielectric"
-        return check_nd(kind, img, data, expect_axes=expect_axes, heatmap=heatmap, name=name)
+        report = check_nd(kind, img, data, expect_axes=expect_axes, heatmap=heatmap, name=name)
+        return _against_claim(report, claim)
     report = _check_2d(img, expect_axes=expect_axes, heatmap=None, name=name)
-    if report.best.score > TRY_AVG_ABOVE:
+    says_avg = claim is not None and claim["table"] == "dielectric_avg"
+    if report.best.score > TRY_AVG_ABOVE or says_avg:
         spread = np.nanmax(data, axis=(0, 1)) - np.nanmin(data, axis=(0, 1))
         ranked = search_nd("dielectric_avg", data, [c for c in range(data.shape[2]) if spread[c] > 1e-6],
                            claimed=file_axes(img.claims, data.shape[:-1]))
-        if ranked[0].score < 0.5 * report.best.score:
-            return check_nd("dielectric_avg", img, data, expect_axes=expect_axes, heatmap=heatmap, name=name,
-                            ranked=ranked)
+        # the file's claim of an average decides a near tie; otherwise it must fit twice as well
+        if ranked[0].score < (1.0 if says_avg else 0.5) * report.best.score:
+            report = check_nd("dielectric_avg", img, data, expect_axes=expect_axes, heatmap=heatmap, name=name,
+                              ranked=ranked)
+            return _against_claim(report, claim)
     if heatmap is not None:
         report.write_heatmap(heatmap)
+    return _against_claim(report, claim)
+
+
+def _against_claim(report, claim):
+    """Say so when a bsdf-tab file's claimed kind is not what its values fit (only where a
+    candidate fits: otherwise the identified kind is no evidence)."""
+    allowed = identified_as(claim)
+    if allowed is None or any(f.startswith("no candidate fits well") for f in report.findings):
+        return report
+    found = report.to_dict()["table"]
+    if found not in allowed:
+        report.findings.append(f"the file says it is a `{claim['table']}` table, its values fit `{found}`: "
+                               "the claims and the data disagree")
     return report
 
 
@@ -162,7 +189,8 @@ def _check_2d(img: LutImage, *, expect_axes=None, heatmap=None, name: str = "lut
     worst_mu = mu_h.values(mu_n)[ri[worst[0]] if mu_rows else ci[worst[1]]]
     worst_alpha = ro_h.values(ro_n)[ci[worst[1]] if mu_rows else ri[worst[0]]]
     report.worst.update(mu=float(worst_mu), alpha=float(worst_alpha))
-    _findings(report, best, resid, mu_rows, mu_vals, step, _claimed_axes(img, expect_axes), nan_note, data)
+    _findings(report, best, resid, mu_rows, mu_vals, step, _claimed_axes(img, expect_axes), nan_note, data,
+              infinite=img.infinite)
     if heatmap is not None:
         report.write_heatmap(heatmap)
     return report
@@ -182,12 +210,16 @@ def _alternatives(ranked: list[Hypothesis]) -> list[dict]:
 
 
 def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool, mu_vals: np.ndarray,
-              step: float, claimed, nan_note, report_data: np.ndarray) -> None:
+              step: float, claimed, nan_note, report_data: np.ndarray, infinite: int = 0) -> None:
     f = report.findings
     if nan_note:
         f.append(nan_note)
-    if best.score > 0.02:
-        f.append(f"no candidate fits well (best mean error {best.score:.3g}): this may not be an albedo, "
+    outside, decisive = out_of_unit(report_data, infinite)
+    if outside:
+        f.append(outside)
+    if best.score > 0.02 or decisive:
+        f.append(f"no candidate fits well (best mean error {best.score:.3g}"
+                 f"{'; values far outside [0, 1]' if decisive else ''}): this may not be an albedo, "
                  "split-sum or multiscatter table of GGX or Beckmann")
     if best.shadowing == "schlick":
         f.append("shadowing: Schlick-GGX G1 = x / (x (1 - k) + k) with k = alpha / 2 (Karis' UE4 notes, "
@@ -202,9 +234,15 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
     elif report.transfer == "srgb":
         f.append("the file declares sRGB but holds linear values: a loader that honours the tag decodes the LUT as "
                  "sRGB; mark it linear (KTX2 transfer function linear, no PNG sRGB/gAMA chunk)")
-    for label, h in (("rows", best.rows), ("columns", best.cols)):
-        if h.reversed:
-            what = "Y flipped" if label == "rows" else "X flipped"
+    slot = lambda n: "rough" if n in ("roughness", "alpha") else n  # noqa: E731
+    for k, (label, h) in enumerate((("rows", best.rows), ("columns", best.cols))):
+        what = "Y flipped" if label == "rows" else "X flipped"
+        # the file's own claim of the axis' order (Godot's roughness rows run high to low on purpose)
+        c = claimed[k] if claimed and len(claimed) == 2 else {}
+        order = c.get("order") if slot(str(c.get("name"))) == slot(_axis_label(h)) else None
+        if order == "decreasing" and not h.reversed:
+            f.append(f"{what}: the file says the {label} run from {c['name']} high to low, the data runs low to high")
+        elif h.reversed and order != "decreasing":
             extra = " (equivalently x = 1 - mu)" if h.quantity == "mu" and h.spacing == "linear" else ""
             f.append(f"{what}: the {label} run from {_axis_label(h)} high to low{extra}")
         offset = NODE_TYPES[h.nodes][1]
@@ -215,7 +253,6 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
     if claimed:
         found = [_axis_label(best.rows), _axis_label(best.cols)]
         names = [str(c["name"]) for c in claimed]
-        slot = lambda n: "rough" if n in ("roughness", "alpha") else n  # noqa: E731
         if [slot(n) for n in names] == [slot(n) for n in found[::-1]] and slot(found[0]) != slot(found[1]):
             f.append(f"axes swapped: the file says [{', '.join(names)}], the data is [{', '.join(found)}]")
             claimed = claimed[::-1]
@@ -265,7 +302,8 @@ def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None
     Parameters
     ----------
     path : str or os.PathLike
-        EXR, KTX2, DDS, PNG, ``.npy`` or a C/C++/JS array file.
+        EXR, KTX2, DDS, PNG, ``.npy``, an ``npy-channels`` sidecar ``S.meta.json``, or a C/C++/JS
+        array file (bsdf-tab's own ``.h`` needs no ``shape``).
     shape : tuple of int, optional
         The shape of an array file's numbers (``(32, 32)``, ``(16, 16, 2)``).
     array_values : str
@@ -280,9 +318,11 @@ def check_lut(path, *, shape=None, array_values: str = "float", expect_axes=None
 
     Returns
     -------
-    Report or NDReport
+    Report, NDReport or ClaimReport
         ``report.to_dict()`` is the JSON report; ``report.text()`` the human one (an
-        :class:`~bsdf_tab.doctor.ndcheck.NDReport` for 1-D averages and 3-D / averaged glass).
+        :class:`~bsdf_tab.doctor.ndcheck.NDReport` for 1-D averages and 3-D / averaged glass; a
+        :class:`~bsdf_tab.doctor.claims.ClaimReport`, ``"fitted": false``, for a bsdf-tab file whose
+        claimed table kind the doctor does not fit).
 
     Raises
     ------

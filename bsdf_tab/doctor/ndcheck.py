@@ -16,8 +16,9 @@ import numpy as np
 from .fit import NODE_FORMULA, NODE_TYPES, even_indices
 from .glass import AVG_RULE, Z_MAX, albedo_avg_exact_at, glass_avg_exact_at, glass_exact_at
 from .nd import FILE_SPACING, KINDS_ND, NDHypothesis, claimed_axes as file_axes, predict, search_nd, to_file_order
+from .claims import axis_orders
 from .readers import LutImage
-from .storage import BITS, MU_CLAMPS, drop_guesses, high_frequency, quantization, storage_rms
+from .storage import BITS, MU_CLAMPS, drop_guesses, high_frequency, out_of_unit, quantization, storage_rms
 
 __all__ = ["MAX_CHECK", "NDReport", "check_nd"]
 
@@ -90,7 +91,7 @@ class NDReport:
             chans[name] = f"constant {value:.6g}"
         return {
             "file": self.name, "format": self.file_format, "shape": self.shape,
-            "table": b.kind, "quantity": "+".join(dict.fromkeys(b.meanings)),
+            "table": b.kind, "fitted": True, "quantity": "+".join(dict.fromkeys(b.meanings)),
             "distribution": b.distribution, "shadowing": b.shadowing, "eta": b.side,
             "axes": [self._axis(lab, a, n) for lab, a, n in zip(labels, b.axes, self.shape)],
             "channels": chans, "channel_meanings": {k: MEANING_TEXT.get(v, v) for k, v in chans.items()},
@@ -264,7 +265,8 @@ def check_nd(kind: str, img: LutImage, data: np.ndarray, *, expect_axes=None, he
     if odd:
         report.interior = {"max_error": float(np.nanmax(np.abs(inner))), "mean_error": float(np.nanmean(np.abs(inner))),
                            "excluded": [_slice_text(best, ax, i, shape, idx, data, resid) for ax, i in odd]}
-    _findings(report, best, inner, _drop(nodes, best, odd), idx, claimed_axes(img, expect_axes), data)
+    _findings(report, best, inner, _drop(nodes, best, odd), idx, claimed_axes(img, expect_axes), data,
+              axis_orders(img.claims, shape), img.infinite)
     for ax, i in odd:
         report.findings.append("an end slice follows a convention of its own: " + _slice_text(best, ax, i, shape, idx, data, resid)
                                + f"; elsewhere max {report.interior['max_error']:.2g}, mean {report.interior['mean_error']:.2g}")
@@ -318,13 +320,18 @@ def _drop(nodes: dict, best: NDHypothesis, odd) -> dict:
     return out
 
 
-def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: dict, idx, claimed, data) -> None:
+def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: dict, idx, claimed, data,
+              orders=None, infinite: int = 0) -> None:
     f = report.findings
     labels = AXIS_LABELS[len(best.axes)]
     if not np.isfinite(data).all():
         f.append(f"{int((~np.isfinite(data)).sum())} texels are NaN or infinite (ignored in the fit)")
-    if best.score > 0.02:
-        f.append(f"no candidate fits well (best mean error {best.score:.3g}): this may not be an albedo average or a "
+    outside, decisive = out_of_unit(data, infinite)
+    if outside:
+        f.append(outside)
+    if best.score > 0.02 or decisive:
+        f.append(f"no candidate fits well (best mean error {best.score:.3g}"
+                 f"{'; values far outside [0, 1]' if decisive else ''}): this may not be an albedo average or a "
                  "GGX dielectric R / T table")
     if best.encoding == "srgb-decoded":
         f.append("decoded as sRGB: the values are the sRGB decode of the table (an *_SRGB texture format, or a "
@@ -333,8 +340,18 @@ def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: di
         f.append("stored sRGB-encoded: the values are the sRGB encode of the table; decode them before use")
     elif report.transfer == "srgb":
         f.append("the file declares sRGB but holds linear values: a loader that honours the tag decodes the LUT as sRGB")
-    for lab, a in zip(labels, best.axes):
-        if a.reversed:
+    for k, (lab, a) in enumerate(zip(labels, best.axes)):
+        # the file's own claim of the axis' order, where it names the same quantity: a decreasing
+        # axis the file says is decreasing is no flip
+        cname, order = orders[k] if orders and len(orders) == len(best.axes) else (None, None)
+        if cname is None or _SLOT.get(str(cname).lower(), str(cname).lower()) != a.quantity:
+            order = None
+        reversed_ = a.reversed
+        if a.spacing == FILE_SPACING and a.given is not None and len(a.given) > 1:
+            reversed_ = a.given[-1] < a.given[0]  # the file's own values, as they run
+        if order == "decreasing" and not reversed_:
+            f.append(f"{FLIP[lab]}: the file says the {lab} run from {cname} high to low, the data runs low to high")
+        elif reversed_ and order != "decreasing":
             f.append(f"{FLIP[lab]}: the {lab} run from {a.label} high to low")
         off = NODE_TYPES[a.nodes][1]
         if off:

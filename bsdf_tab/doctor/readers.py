@@ -17,75 +17,18 @@ its axes and metadata, which the doctor takes as the file's claims.
 from __future__ import annotations
 
 import json
-import re
 import struct
 import zlib
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import SpecError
+from .arrays import ARRAY_VALUES, read_array_text
+from .image import LutImage, LutReadError, as_image, srgb_decode, srgb_encode
 
 __all__ = ["LutImage", "LutReadError", "ARRAY_VALUES", "read_lut", "read_lut_bytes", "srgb_decode", "srgb_encode"]
 
-#: How the numbers of a C/C++/JS array file are read.
-ARRAY_VALUES = ("float", "half", "unorm8", "unorm16")
 
-
-@dataclass
-class LutImage:
-    """A LUT as read from a file."""
-
-    data: np.ndarray  # (height, width, channels) float64
-    format: str
-    channels: list[str]
-    storage: str = "float32"
-    transfer: str | None = None  # what the file declares: "linear", "srgb" or None
-    claims: dict = field(default_factory=dict)  # bsdf-tab metadata: axes, spec, meta
-
-
-def srgb_decode(v: np.ndarray) -> np.ndarray:
-    """The sRGB electro-optical transfer function (IEC 61966-2-1): encoded -> linear."""
-    v = np.clip(v, 0.0, 1.0)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
-
-
-def srgb_encode(v: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`srgb_decode`: linear -> encoded."""
-    v = np.clip(v, 0.0, 1.0)
-    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1.0 / 2.4) - 0.055)
-
-
-class LutReadError(SpecError):
-    """A file that cannot be read as a LUT (``param`` is ``lut``)."""
-
-    def __init__(self, message: str, param: str = "lut"):
-        super().__init__(param, message)
-
-    def __reduce__(self):
-        return (type(self), (self.message, self.param))
-
-
-def _as_image(a: np.ndarray, fmt: str, names=None, **kw) -> LutImage:
-    """Shape the values as (axes..., channels): 1-D (n,) -> (n, 1); 2-D (h, w) -> (h, w, 1) and
-    (h, w, c <= 4) as is; 3-D (d, h, w) with w > 4 -> (d, h, w, 1) and (d, h, w, c <= 4) as is."""
-    a = np.asarray(a, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[:, None]
-    elif a.ndim == 2:
-        a = a[:, :, None]
-    elif a.ndim == 3 and a.shape[2] > 4:
-        a = a[..., None]
-    elif a.ndim == 4 and a.shape[3] > 4:
-        raise LutReadError(f"a {a.shape} array has more than 4 channels (give (depth, height, width[, channels <= 4]))")
-    elif a.ndim > 4:
-        raise LutReadError(f"cannot read a {a.ndim}-D array as a LUT; expected 1 to 3 axes and up to 4 channels")
-    names = list(names) if names else [str(i) for i in range(a.shape[-1])]
-    return LutImage(a, fmt, names, **kw)
-
-
-# ----------------------------------------------------------------------------- PNG
 
 _PNG_SIG = b"\x89PNG\r\n\x1a\n"
 _PNG_CHANNELS = {0: ("Y",), 2: ("R", "G", "B"), 4: ("Y", "A"), 6: ("R", "G", "B", "A")}
@@ -171,8 +114,25 @@ def read_png(data: bytes) -> LutImage:
         values = rows.reshape(height, -1).view(">u2").astype(np.float64) / 65535.0
     else:
         values = rows.astype(np.float64) / 255.0
-    return _as_image(values.reshape(height, width, nch), "png", names,
-                     storage=f"unorm{depth}", transfer=transfer, claims=_claims_from(text))
+    claims = _claims_from(text)
+    return as_image(_unstack(values.reshape(height, width, nch), claims), "png", names, channels_last=True,
+                     storage=f"unorm{depth}", transfer=transfer, claims=claims)
+
+
+def _unstack(image: np.ndarray, claims: dict) -> np.ndarray:
+    """An image (height, width, channels) in bsdf-tab's texture layout (:mod:`bsdf_tab.io.texture`)
+    back in the shape of the table its claims give: a 1-D table is one row of ``n`` texels, a 3-D
+    table ``(n0, n1, n2)`` its axis-0 slices stacked vertically (row = i0 * n1 + i1). An image
+    whose size does not fit the claimed axes is left as it is."""
+    sizes = _claimed_sizes(claims)
+    height, width, nch = image.shape
+    if not sizes:
+        return image
+    if len(sizes) == 1 and height == 1 and sizes[0] == width:
+        return image.reshape(width, nch)
+    if len(sizes) == 3 and sizes[0] * sizes[1] == height and sizes[2] == width:
+        return image.reshape(sizes[0], sizes[1], sizes[2], nch)
+    return image
 
 
 # ----------------------------------------------------------------------------- KTX2
@@ -240,6 +200,7 @@ def read_ktx2(data: bytes) -> LutImage:
     kind, names, storage, srgb = _VK[vk]
     height, depth = max(height, 1), max(depth, 1)
     texels = _decode_texels(buf, kind, len(names), storage, width * height * depth)
+    # pixelHeight 0 (or 1) with pixelDepth 0: a 1-D texture, one texel per node of the one axis
     texels = texels.reshape((depth, height, width, len(names)) if depth > 1 else
                             (width, len(names)) if height == 1 else (height, width, len(names)))
     transfer = "srgb" if srgb else "linear"
@@ -254,7 +215,8 @@ def read_ktx2(data: bytes) -> LutImage:
                 claims[key] = json.loads(value)
             except ValueError:
                 claims[key] = value
-    return _as_image(texels, "ktx2", list(names), storage=storage, transfer=transfer, claims=_claims_from(claims))
+    return as_image(texels, "ktx2", list(names), channels_last=True, storage=storage, transfer=transfer,
+                     claims=_claims_from(claims))
 
 
 # ----------------------------------------------------------------------------- DDS
@@ -272,18 +234,31 @@ _DXGI = {
 _D3D = {111: 54, 112: 34, 113: 10, 114: 41, 115: 16, 116: 2}
 
 
+#: D3D10_RESOURCE_DIMENSION of the DX10 header -> the texture's number of axes
+_DDS_DIMENSION = {2: 1, 3: 2, 4: 3}
+_DDSD_DEPTH, _DDSCAPS2_VOLUME = 0x800000, 0x200000
+
+
 def read_dds(data: bytes) -> LutImage:
-    """A 2-D DDS texture (DX10 header or a legacy float / 8-bit RGBA header), level 0."""
+    """A 1-D, 2-D or volume (3-D) DDS texture (DX10 header or a legacy float / 8-bit RGBA header),
+    level 0: a 1-D texture is read as (width, channels), a volume as (depth, height, width,
+    channels), the slices in file order (bsdf-tab's ``dds`` writer: axis 0 along the depth)."""
     if data[:4] != b"DDS ":
         raise LutReadError("not a DDS file (bad magic)")
+    if len(data) < 128:
+        raise LutReadError("DDS: truncated header")
     size, flags, height, width, pitch, depth, mips = struct.unpack_from("<7I", data, 4)
     pf_size, pf_flags, fourcc, bits, rmask, gmask, bmask, amask = struct.unpack_from("<II4sIIIII", data, 76)
+    caps2 = struct.unpack_from("<I", data, 112)[0]
     offset = 128
+    volume = bool(caps2 & _DDSCAPS2_VOLUME) and bool(flags & _DDSD_DEPTH) and depth > 1
+    ndim = 3 if volume else 2
     if fourcc == b"DX10":
         dxgi, dim, _, array_size, _ = struct.unpack_from("<5I", data, 128)
         offset += 20
-        if dim != 3 or array_size > 1:
-            raise LutReadError("DDS: only a single 2-D texture is identified")
+        if dim not in _DDS_DIMENSION or array_size > 1:
+            raise LutReadError("DDS: only a single 1-D, 2-D or volume texture is identified (no arrays or cube maps)")
+        ndim = _DDS_DIMENSION[dim]
     elif pf_flags & 0x4:  # DDPF_FOURCC
         code = struct.unpack("<I", fourcc)[0]
         if code not in _D3D:
@@ -296,8 +271,16 @@ def read_dds(data: bytes) -> LutImage:
     if dxgi not in _DXGI:
         raise LutReadError(f"DDS: DXGI format {dxgi} is not a LUT format this reader knows")
     kind, names, storage, srgb = _DXGI[dxgi]
-    texels = _decode_texels(data[offset:], kind, len(names), storage, width * height).reshape(height, width, len(names))
-    return _as_image(texels, "dds", list(names), storage=storage, transfer="srgb" if srgb else None)
+    height, depth = max(height, 1), max(depth, 1)
+    shape = {1: (width * height,), 2: (height, width), 3: (depth, height, width)}[ndim]
+    count = int(np.prod(shape))
+    texel_bytes = 4 if kind == "a2b10g10r10" else len(names) * np.dtype(kind).itemsize
+    if len(data) - offset < count * texel_bytes:
+        raise LutReadError(f"DDS: truncated pixel data ({len(data) - offset} bytes, "
+                           f"{' x '.join(map(str, shape))} texels need {count * texel_bytes})")
+    texels = _decode_texels(data[offset:], kind, len(names), storage, count).reshape(*shape, len(names))
+    return as_image(texels, "dds", list(names), channels_last=True, storage=storage,
+                     transfer="srgb" if srgb else None)
 
 
 # ----------------------------------------------------------------------------- EXR, npy, arrays
@@ -353,81 +336,15 @@ def read_exr(data: bytes, name: str = "lut.exr") -> LutImage:
     sizes = _claimed_sizes(claims)
     if sizes and int(np.prod(sizes)) == stack.shape[0] * stack.shape[1] and len(sizes) != 2:
         stack = stack.reshape(*sizes, stack.shape[-1])  # bsdf-tab's layout: last axis along the width
-    return _as_image(stack, "exr", order, storage=storage, transfer="linear", claims=claims)
+    return as_image(stack, "exr", order, storage=storage, transfer="linear", claims=claims)
 
 
-_NUMBER = re.compile(r"(?<![A-Za-z_0-9.])[-+]?(?:0[xX][0-9a-fA-F]+|(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?)[fFlLuU]*")
-
-
-def read_array_text(text: str, shape, values: str = "float", array_name: str | None = None) -> LutImage:
-    """The numbers of a C / C++ / JavaScript array initializer, reshaped to ``shape``.
-
-    Comments are dropped and only the numbers after the first ``=`` (C) or ``(`` / ``[`` of the
-    initializer are taken, so declarations like ``float lut[32][32]`` do not count. ``values``:
-    ``float`` (decimal numbers), ``half`` (integers that are IEEE binary16 bit patterns, as
-    three.js' ``DFGLUTData.js``), ``unorm8`` or ``unorm16`` (integers / 255 or / 65535).
-    """
-    if values not in ARRAY_VALUES:
-        raise LutReadError(f"must be one of {', '.join(ARRAY_VALUES)}, got {values!r}", "array_values")
-    if shape is None:
-        raise LutReadError("an array file needs its shape (for example 32,32 or 16,16,2)", "shape")
-    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
-    text = re.sub(r"//[^\n]*", " ", text)
-    if array_name:  # one array of a file that declares several (Blender's eevee_lut.cc): up to its ';'
-        m = re.search(rf"(?<![A-Za-z0-9_]){re.escape(array_name)}\s*(?:\[[^\]]*\]\s*)*=", text)
-        if m is None:
-            raise LutReadError(f"no array named {array_name!r} is initialized in the file", "array_name")
-        end = text.find(";", m.end())
-        text = text[m.start():end if end >= 0 else len(text)]
-    eq = text.find("=")
-    if eq < 0:
-        m = re.search(r"[(\[{]", text)
-        eq = m.start() if m else -1
-    body = text[eq + 1:]
-    tokens = [t.rstrip("uUlL") if t.lstrip("+-").lower().startswith("0x") else t.rstrip("fFlLuU")
-              for t in _NUMBER.findall(body)]
-    need = int(np.prod(shape))
-    if len(tokens) != need:  # too many is as wrong as too few: never a silent partial read
-        hint = ""
-        names = [] if array_name else _initialized_arrays(text)
-        if len(names) > 1:
-            hint = f"; the file initializes {len(names)} arrays ({', '.join(names[:6])}): choose one with --array-name"
-        raise LutReadError(f"the array file holds {len(tokens)} numbers, the shape {tuple(shape)} needs {need}{hint}",
-                           "shape")
-    if values == "float":
-        nums = np.array([float.fromhex(t) if t.lower().startswith(("0x", "-0x")) else float(t) for t in tokens])
-        storage = "float32"
-    else:
-        ints = np.array(_integers(tokens, values), dtype=np.int64)
-        if values == "half":
-            nums = ints.astype(np.uint16).view(np.float16).astype(np.float64)
-            storage = "float16"
-        else:
-            nums = ints / (255.0 if values == "unorm8" else 65535.0)
-            storage = values
-    return _as_image(nums.reshape(tuple(shape)), "array", storage=storage)
-
-
-_INITIALIZED = re.compile(r"(?<![A-Za-z0-9_])([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[[^\]]*\]\s*)*=\s*"
-                          r"(?:new\s+[A-Za-z0-9_]+\s*\(\s*)?[\[{(]")
-
-
-def _initialized_arrays(text: str) -> list[str]:
-    """The names of the arrays a C/C++/JS source (comments dropped) initializes, in order."""
-    return list(dict.fromkeys(m.group(1) for m in _INITIALIZED.finditer(text)))
-
-
-def _integers(tokens: list[str], values: str) -> list[int]:
-    """The integers of an array file read as ``values`` (half, unorm8, unorm16); one LutReadError
-    naming the first number that is not one (a float array read with the wrong --array-values)."""
-    out = []
-    for t in tokens:
-        try:
-            out.append(int(t, 0))
-        except ValueError:
-            raise LutReadError(f"{values} reads integers, but the array file holds {t!r}; "
-                               "use --array-values float for decimal numbers", "array_values") from None
-    return out
+def _npy_storage(dtype) -> str:
+    """What a ``.npy`` array's dtype says about storage: ``unorm8`` / ``unorm16`` for uint8 /
+    uint16 (read as UNORM), otherwise the dtype's own name (``float16``, ``float32``,
+    ``float64``, ...)."""
+    dtype = np.dtype(dtype)
+    return {np.dtype(np.uint8): "unorm8", np.dtype(np.uint16): "unorm16"}.get(dtype, dtype.name)
 
 
 def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str = "float",
@@ -467,15 +384,19 @@ def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str
             raise LutReadError(f"cannot read the .npy file: {exc}") from None
         if arr.dtype.names:
             names = [n for n in arr.dtype.names if not n.endswith("_err")]
+            dtype = np.result_type(*[arr.dtype.fields[n][0] for n in names]) if names else np.dtype(np.float64)
             arr = np.stack([arr[n] for n in names], axis=-1)
-            return _as_image(arr, "npy", names)
-        storage = {np.dtype(np.float16): "float16", np.dtype(np.uint8): "unorm8",
-                   np.dtype(np.uint16): "unorm16"}.get(arr.dtype, "float32")
+            return as_image(arr, "npy", names, storage=_npy_storage(dtype))
+        storage = _npy_storage(arr.dtype)
         if storage == "unorm8":
             arr = arr / 255.0
         elif storage == "unorm16":
             arr = arr / 65535.0
-        return _as_image(arr, "npy", storage=storage)
+        return as_image(arr, "npy", storage=storage)
+    if name.lower().endswith(NPY_CHANNELS_SIDECAR):
+        raise LutReadError(f"{name}: an npy-channels sidecar names a set of .npy files beside it, which its bytes alone "
+                           "do not hold: check it by its path (bsdf-tab check S.meta.json), or check one of its .npy "
+                           "arrays")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
@@ -484,7 +405,44 @@ def read_lut_bytes(data: bytes, name: str = "lut", shape=None, array_values: str
     return read_array_text(text, shape, array_values, array_name)
 
 
-def read_lut(path, shape=None, array_values: str = "float", array_name: str | None = None) -> LutImage:
-    """Read the LUT file ``path`` (see :func:`read_lut_bytes`)."""
+#: the sidecar that names a set of ``npy-channels`` files (:mod:`bsdf_tab.io.npy_channels`)
+NPY_CHANNELS_SIDECAR = ".meta.json"
+
+
+def read_npy_channels(path) -> LutImage:
+    """A set of ``.npy`` files bsdf-tab's ``npy-channels`` format wrote, named by its sidecar
+    ``S.meta.json``, read by :mod:`bsdf_tab.io`'s own reader: the value channels (``*_err``
+    left out) in channel order, the axes and metadata as the file's claims, the storage the
+    arrays' dtype."""
+    from ..io import read as io_read
+
     p = Path(path)
+    try:
+        parts = io_read(p, "npy-channels")
+    except (OSError, ValueError, KeyError) as exc:  # FormatError is a ValueError
+        message = getattr(exc, "message", None) or str(exc)
+        raise LutReadError(f"{p.name}: cannot read the npy-channels set ({message})") from None
+    names = [n for n in parts.channels if not n.endswith("_err")]
+    if not names:
+        raise LutReadError(f"{p.name}: the npy-channels set has no value channel")
+    arrays = [np.asarray(parts.channels[n]) for n in names]
+    if len({a.shape for a in arrays}) != 1:
+        raise LutReadError(f"{p.name}: the channels of the npy-channels set differ in shape")
+    meta = parts.meta if isinstance(parts.meta, dict) else {}
+    claims = {"axes": {n: np.asarray(v, dtype=np.float64).tolist() for n, v in parts.axes.items()}, "channels": names}
+    if meta:
+        claims["meta"] = meta
+        if isinstance(meta.get("spec"), dict):
+            claims["spec"] = meta["spec"]
+    dtype = np.result_type(*[a.dtype for a in arrays])
+    return as_image(np.stack(arrays, axis=-1), "npy-channels", names, channels_last=True,
+                     storage=_npy_storage(dtype), claims=claims)
+
+
+def read_lut(path, shape=None, array_values: str = "float", array_name: str | None = None) -> LutImage:
+    """Read the LUT file ``path`` (see :func:`read_lut_bytes`); an ``npy-channels`` sidecar
+    ``S.meta.json`` reads its set of files (:func:`read_npy_channels`)."""
+    p = Path(path)
+    if p.name.lower().endswith(NPY_CHANNELS_SIDECAR):
+        return read_npy_channels(p)
     return read_lut_bytes(p.read_bytes(), p.name, shape=shape, array_values=array_values, array_name=array_name)

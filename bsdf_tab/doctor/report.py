@@ -92,6 +92,7 @@ class Report:
             "format": self.file_format,
             "shape": self.shape,
             "table": table_kind(b.meanings),
+            "fitted": True,
             "distribution": b.distribution,
             "shadowing": b.shadowing,
             "axes": [self._axis("rows", b.rows, H), self._axis("columns", b.cols, W)],

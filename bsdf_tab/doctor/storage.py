@@ -9,7 +9,8 @@ import numpy as np
 
 from .readers import LutImage
 
-__all__ = ["BITS", "MU_CLAMPS", "NO_FIT", "drop_guesses", "high_frequency", "quantization", "storage_rms"]
+__all__ = ["BITS", "MU_CLAMPS", "NO_FIT", "drop_guesses", "high_frequency", "out_of_unit", "quantization",
+           "storage_rms"]
 
 #: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
 MU_CLAMPS = {1e-4: "1e-4 (the clamp of Cycles and EEVEE)", math.cos(1.57): "cos(1.57) = 7.96e-4 (theta clamped to 1.57)",
@@ -59,7 +60,27 @@ def high_frequency(r: np.ndarray) -> np.ndarray:
 
 #: the best mean screening error above which no candidate is taken to fit
 NO_FIT = 0.02
-_KEPT_WITHOUT_FIT = ("no candidate fits well", "stored at", "stored as float16", "left out: ")
+_KEPT_WITHOUT_FIT = ("no candidate fits well", "stored at", "stored as float16", "left out: ", "values outside [0, 1]")
+#: how far outside [0, 1] a value may lie (noise, rounding) before it is no energy
+UNIT_SLACK = 0.05
+
+
+def out_of_unit(data: np.ndarray, infinite: int = 0) -> tuple[str | None, bool]:
+    """Every kind the doctor fits (albedos, split-sum terms, R and T, their complements) lies in
+    [0, 1]. Returns (the finding on values outside it, or None; whether they rule every candidate
+    out: over 1 % of the values). ``infinite``: texels that were infinite (already NaN in
+    ``data``), counted as outside."""
+    finite = data[np.isfinite(data)]
+    bad = (finite < -UNIT_SLACK) | (finite > 1.0 + UNIT_SLACK)
+    n, total = int(bad.sum()) + infinite, finite.size + infinite
+    if not n:
+        return None, False
+    lo = float(finite.min()) if finite.size else math.nan
+    hi = math.inf if infinite else float(finite.max()) if finite.size else math.nan
+    decisive = n > 0.01 * total
+    text = (f"values outside [0, 1]: {n} of {total} (from {lo:.4g} to {hi:.4g}), where every table kind the "
+            "doctor fits (albedos, split-sum terms, R and T) lies in [0, 1]")
+    return text, decisive
 
 
 def drop_guesses(findings: list) -> None:
