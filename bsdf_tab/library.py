@@ -169,5 +169,12 @@ def library_specs(obj: Any) -> list[tuple[str, dict]]:
             "mu": _size(m.get("mu", defaults["mu"]), f"{p}.mu"),
             "roughness": _size(m.get("roughness", defaults["roughness"]), f"{p}.roughness"),
         }
-        out += [(f"{name}/{file}", spec) for file, spec in _TABLES[kind](m, mat, p)]
+        tables = _TABLES[kind](m, mat, p)
+        files = [file for file, _ in tables]
+        twice = sorted({f for f in files if files.count(f) > 1})
+        if twice:  # e.g. wavelengths 550 and 550.0000001 name one file: the second would overwrite the first
+            raise SpecError(f"{p}.wavelengths_nm" if "wavelengths_nm" in m else p,
+                            f"two of its tables would be written to {name}/{twice[0]}: give values that differ "
+                               "in their printed form (file names use 6 significant digits)")
+        out += [(f"{name}/{file}", spec) for file, spec in tables]
     return out

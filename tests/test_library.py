@@ -62,6 +62,9 @@ def test_small_library_specs():
     (("f0 = 0.04", "f0 = 1.5"), "library.materials[2].f0"),
     (("ior = [[0.166, 3.15], [1.50, 1.88]]", "ior = [[0.166, -3.15], [1.50, 1.88]]"), "library.materials[0].ior[0]"),
     (("wavelengths_nm = [650, 450]", "wavelengths_nm = [650]"), "library.materials[0].wavelengths_nm"),
+    # one file name for two tables: the second would overwrite the first (an audit's find)
+    (("wavelengths_nm = [650, 450]", "wavelengths_nm = [550, 550]"), "library.materials[0].wavelengths_nm"),
+    (("wavelengths_nm = [650, 450]", "wavelengths_nm = [550, 550.0000001]"), "library.materials[0].wavelengths_nm"),
     (("eta = 1.5", "eta = 1.0"), "library.materials[1].eta"),
     (("name = \"glass\"", "name = \"gold\""), "library.materials[1].name"),
     (("mu = 3", "mu = 1"), "library.mu"),

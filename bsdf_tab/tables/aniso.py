@@ -258,6 +258,11 @@ def albedo_aniso_values(mu, phi_v, alpha_x, alpha_y, shadowing: str = "correlate
 
     run_chunks(n, launch, device, workers=workers, progress=progress)
     res = out.numpy()
+    # a mirror (alpha_x = alpha_y = 0) reflects everything: E = F = 1 at every mu, the grazing
+    # corner mu = 0 included (its integrand has no finite value there; the limit alpha -> 0 first,
+    # as the isotropic kinds define it)
+    mirror = (flat[2] == 0.0) & (flat[3] == 0.0)
+    res[mirror] = (1.0, 0.0)
     return res[:, 0].reshape(shape), res[:, 1].reshape(shape)
 
 

@@ -200,3 +200,15 @@ def test_chunks_over_workers_bit_identical_and_progress_can_stop():
     with pytest.raises(Stop):
         albedo_aniso_values(np.linspace(0.05, 1.0, 200), 0.4, 0.3, 0.1, workers=1, progress=stop)
     assert len(calls) == 1  # no chunk started after the first one stopped the computation
+
+
+def test_the_mirror_corner_is_the_mirror_s_closed_form():
+    """An audit's find: at mu = 0, alpha = 0 the kind gave E = 0 (error 0) where the mirror's
+    closed form, and every isotropic kind, gives F = 1; the default axes contain that corner."""
+    import bsdf_tab
+
+    t = bsdf_tab.tabulate({"table": "albedo_aniso", "axes": {"mu": [0.0, 0.5], "phi_v": [0.0, 1.0],
+                                                             "alpha": [0.0], "anisotropy": [0.0, 0.9]}})
+    assert np.all(t.channels["E"] == 1.0) and np.all(t.channels["E_err"] == 0.0)
+    iso = bsdf_tab.tabulate({"table": "albedo", "axes": {"mu": [0.0], "alpha": [0.0]}})
+    assert iso.channels["E"][0, 0] == 1.0
