@@ -110,7 +110,7 @@ def table_meta(nspec: dict, max_error: dict[str, float]) -> dict:
         "conventions": conventions(nspec),
         "method": {
             "name": nspec["method"],
-            "tolerance": nspec["tolerance"],
+            **({"tolerance": nspec["tolerance"]} if "tolerance" in nspec else {}),  # none for a fixed rule
             "description": METHOD_TEXT.get(nspec["method"], nspec["method"]),
             "precision": "float64 (stored as float32)",
         },

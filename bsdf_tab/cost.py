@@ -49,7 +49,7 @@ import time
 from dataclasses import dataclass
 
 from .errors import SpecError
-from .spec import normalize_spec, resolve_axes
+from .spec import DEFAULT_TOLERANCE, normalize_spec, resolve_axes
 
 __all__ = [
     "ADAPTIVE_BASE",
@@ -284,7 +284,7 @@ def estimate(spec: dict | str, *, scale: float = 1.0) -> Cost:
     sizes = {name: len(values) for name, values in axes.items()}
     texels = math.prod(sizes.values())
     mode = KIND_MODE.get(kind, "dielectric")  # an unknown kind: the dearest family
-    tol = float(nspec["tolerance"])
+    tol = float(nspec.get("tolerance", DEFAULT_TOLERANCE))  # absent for a fixed-rule kind (not used by it)
     drivers = ("axes", "tolerance") if method == "adaptive" else ("axes", "effort")
     if mode == "point":
         drivers = ("axes",)

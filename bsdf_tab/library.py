@@ -18,7 +18,7 @@ A library file (TOML or JSON) has a top-level ``library`` table::
     [[library.materials]]
     name = "crown-glass"
     type = "dielectric"           # eta = n_inside / n_outside: light entering (eta) and leaving (1/eta)
-    eta = 1.52
+    eta = 1.52                    # in [0.01, 100], not 1: both eta and 1/eta are tabulated
 
     [[library.materials]]
     name = "white-plastic"
@@ -29,6 +29,8 @@ Each material gets its tables under ``<out>/<material name>/``: a conductor one 
 table per wavelength (``albedo_650nm.exr``: E(mu, roughness) with the exact conductor Fresnel),
 a dielectric ``dielectric.exr`` (R, T over mu, roughness and eta in {1/eta, eta}) and
 ``dielectric_avg.exr``, a Schlick material ``albedo.exr`` (Schlick Fresnel with its f0).
+A dielectric's ``eta`` must be in [0.01, 100] and not 1 (:data:`DIELECTRIC_ETA_RANGE`): both eta
+and 1/eta lie on the eta axis, whose domain is (0, 100].
 Materials may override ``distribution``, ``shadowing``, ``mu`` and ``roughness``. Every spec is
 validated by :func:`bsdf_tab.spec.normalize_spec`; errors name the library parameter
 (``library.materials[3].ior[1]``).
@@ -40,10 +42,10 @@ import re
 from typing import Any
 
 from .errors import SpecError
-from .spec import DISTRIBUTIONS, SHADOWINGS, normalize_spec
+from .spec import AXIS_DOMAINS, DISTRIBUTIONS, SHADOWINGS, normalize_spec
 from .validate import check_keys, choice, integer, number
 
-__all__ = ["LIBRARY_KEYS", "MATERIAL_TYPES", "is_library", "library_specs"]
+__all__ = ["DIELECTRIC_ETA_RANGE", "LIBRARY_KEYS", "MATERIAL_TYPES", "is_library", "library_specs"]
 
 LIBRARY_KEYS = ("name", "distribution", "shadowing", "mu", "roughness", "materials")
 MATERIAL_TYPES = ("conductor", "dielectric", "schlick")
@@ -55,6 +57,9 @@ _MATERIAL_KEYS = {
 }
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 DEFAULT_SIZE = 16
+#: A dielectric material's eta: the library tabulates eta and 1/eta, and both must lie in the eta
+#: axis' domain (0, hi], so eta in [1/hi, hi] (hi = 100: [0.01, 100]); eta = 1 is no interface.
+DIELECTRIC_ETA_RANGE = (1.0 / AXIS_DOMAINS["eta"][1], AXIS_DOMAINS["eta"][1])
 
 
 def is_library(obj: Any) -> bool:
@@ -109,8 +114,10 @@ def _dielectric(m: dict, mat: dict, p: str) -> list[tuple[str, dict]]:
     if "eta" not in m:
         raise SpecError(f"{p}.eta", "is required for a dielectric (eta = n_inside / n_outside)")
     eta = number(m["eta"], f"{p}.eta")
-    if not (eta > 0.0 and eta != 1.0):
-        raise SpecError(f"{p}.eta", f"must be > 0 and not 1, got {eta!r}")
+    lo, hi = DIELECTRIC_ETA_RANGE
+    if not (lo <= eta <= hi and eta != 1.0):  # checked here, in the user's terms: the axis also holds 1/eta
+        raise SpecError(f"{p}.eta", f"must be in [{lo:g}, {hi:g}] and not 1 (eta and 1/eta are both tabulated), "
+                        f"got {eta!r}")
     etas = sorted({eta, 1.0 / eta})
     fres = {"type": "dielectric"}
     return [("dielectric.exr", _spec("dielectric", mat, fres, {"eta": etas}, f"{p}.eta")),

@@ -115,6 +115,12 @@ MAX_EFFORT = 1 << 26
 
 DEFAULT_TOLERANCE = 5e-7
 TOLERANCE_RANGE = (1e-12, 1e-1)
+#: Methods of a fixed rule, neither error-controlled nor of adjustable effort: ``gauss_kronrod``, the
+#: composite G7-K15 of ``sheen_albedo``, ``sheen_albedo_avg`` and ``albedo_aniso`` (its error estimate is
+#: the ``_err`` channels). ``tolerance`` is accepted for them (range-checked, so a spec or query valid for
+#: any kind stays valid) but ignored: the normalized spec does not record it, so specs that differ only
+#: in it hash equal (one cache entry for one table) and no file claims a target the rule did not meet.
+FIXED_RULE_METHODS = ("gauss_kronrod",)
 
 TOP_LEVEL_KEYS = ("table", "distribution", "shadowing", "fresnel", "axes", "method", "tolerance", "effort")
 #: Keys that only some kinds accept (TABLE_KINDS[kind]["params"]).
@@ -266,7 +272,8 @@ def normalize_spec(spec: dict | str) -> dict:
     -------
     dict
         A new dict with keys ``table``, ``distribution``, ``shadowing``,
-        ``fresnel``, ``axes`` (in table axis order), ``method``, ``tolerance``;
+        ``fresnel``, ``axes`` (in table axis order), ``method``, ``tolerance`` (not for a
+        fixed-rule method, :data:`FIXED_RULE_METHODS`, which ignores it);
         the ``bsdf`` table also has ``parametrization`` and ``alpha`` (or
         ``roughness``), its single material's width parameter; a kind that declares its own
         keys (``TABLE_KINDS[kind]["keys"]``, :data:`KIND_OPTIONS`) has each of them.
@@ -305,7 +312,9 @@ def normalize_spec(spec: dict | str) -> dict:
         out.update(_normalize_scalar_alpha(spec))
     out["axes"] = _normalize_axes(spec.get("axes"), kind, parametrization)
     out["method"] = choice(spec.get("method", sorted(methods)[0] if "methods" in info else "adaptive"), methods, "method")
-    out["tolerance"] = _normalize_tolerance(spec.get("tolerance", DEFAULT_TOLERANCE))
+    tolerance = _normalize_tolerance(spec.get("tolerance", DEFAULT_TOLERANCE))
+    if out["method"] not in FIXED_RULE_METHODS:  # a fixed rule ignores it: not recorded (nor hashed)
+        out["tolerance"] = tolerance
     if spec.get("effort") is not None:
         out["effort"] = _normalize_effort(spec["effort"], out["method"])
     return out
@@ -335,7 +344,14 @@ def _normalize_kind_options(spec: dict, kind: str) -> dict:
 def _normalize_effort(value: Any, method: str) -> int:
     """Samples or nodes per texel of a fixed-effort method (absent: the method's default)."""
     if method not in EFFORT_METHODS:
-        raise SpecError("effort", f"is not a parameter of method {method} (it is error-controlled: give tolerance)")
+        if method in FIXED_RULE_METHODS:
+            why = ("a fixed composite Gauss-Kronrod 7-15 rule: neither effort nor tolerance changes it; "
+                   "its error estimate is in the _err channels")
+        elif method == "point":
+            why = "exact point evaluation: its _err channels are rounding bounds"
+        else:
+            why = "it is error-controlled: give tolerance"
+        raise SpecError("effort", f"is not a parameter of method {method} ({why})")
     effort = integer(value, "effort")
     if not 8 <= effort <= MAX_EFFORT:
         raise SpecError("effort", f"must be in [8, {MAX_EFFORT}], got {effort}")

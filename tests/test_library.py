@@ -105,3 +105,21 @@ def test_library_cli_errors_are_one_line(tmp_path, capsys):
     path.write_text(SMALL)
     assert cli.main(["bake", str(path), "--format", "npz", "-o", str(tmp_path / "o")]) == 2
     assert "library" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("eta", [1e-3, 0.0099, 100.5, 1.0, -2.0])
+def test_dielectric_eta_is_checked_in_the_users_terms(eta):
+    """eta = 1e-3 used to fail on the library's own 1/eta axis node ("got 1000.0")."""
+    with pytest.raises(SpecError) as info:
+        library_specs(tomllib.loads(SMALL.replace("eta = 1.5", f"eta = {eta!r}")))
+    err = info.value
+    assert err.param == "library.materials[1].eta"
+    assert "[0.01, 100]" in err.message and repr(float(eta)) in err.message
+    assert "1000" not in err.message and len(str(err).splitlines()) == 1
+
+
+@pytest.mark.parametrize("eta", [0.01, 100.0, 0.5])
+def test_dielectric_eta_range_ends_are_accepted(eta):
+    specs = dict(library_specs(tomllib.loads(SMALL.replace("eta = 1.5", f"eta = {eta!r}"))))
+    values = specs["glass/dielectric.exr"]["axes"]["eta"]["values"]
+    assert values == sorted([eta, 1.0 / eta])

@@ -418,3 +418,45 @@ def test_nodes_outside_the_domain_name_what_was_given(axis, param):
     assert info.value.param == param
     if param.endswith("range"):
         assert repr(axis["range"]) in info.value.message and "[0, 1]" in info.value.message
+
+
+# --------------------------------------------------------------------------- fixed-rule kinds (audit M1)
+
+FIXED_RULE_KINDS = ("sheen_albedo", "sheen_albedo_avg", "albedo_aniso")
+
+
+@pytest.mark.parametrize("kind", FIXED_RULE_KINDS)
+def test_fixed_rule_kinds_ignore_tolerance_and_do_not_fork_the_hash(kind):
+    """gauss_kronrod is a fixed G7-K15 rule: a tolerance does not change the table, so it must not
+    change the spec (nor its hash: one cache entry per table) nor echo a target the rule never met."""
+    plain = normalize_spec({"table": kind})
+    assert plain["method"] == "gauss_kronrod"
+    for tol in (1e-2, 1e-11):
+        given = normalize_spec({"table": kind, "tolerance": tol})
+        # the ignored value is never echoed: the spec holds the default placeholder or no tolerance at all
+        assert given == plain and given.get("tolerance", 5e-7) == 5e-7
+        assert spec_hash({"table": kind, "tolerance": tol}) == spec_hash({"table": kind})
+    assert normalize_spec(plain) == plain  # idempotent
+    # still range-checked: a query valid for one kind is valid for all, and a bad one is refused
+    assert spec_error({"table": kind, "tolerance": 0.5}).param == "tolerance"
+
+
+def test_adaptive_tolerance_is_part_of_the_spec():
+    a = normalize_spec({"table": "albedo", "tolerance": 1e-3})
+    assert a["tolerance"] == 1e-3
+    assert spec_hash({"table": "albedo", "tolerance": 1e-3}) != spec_hash({"table": "albedo"})
+
+
+@pytest.mark.parametrize("kind", FIXED_RULE_KINDS)
+def test_effort_on_a_fixed_rule_gives_correct_advice(kind):
+    err = spec_error({"table": kind, "effort": 64})
+    assert err.param == "effort"
+    assert "give tolerance" not in err.message  # the old advice: tolerance does nothing for these kinds
+    assert "fixed" in err.message and "_err" in err.message
+    assert len(str(err).splitlines()) == 1
+
+
+def test_effort_advice_for_adaptive_and_point():
+    assert "give tolerance" in spec_error({"table": "albedo", "effort": 64}).message
+    msg = spec_error({"table": "bsdf", "effort": 64}).message
+    assert "give tolerance" not in msg and "point" in msg

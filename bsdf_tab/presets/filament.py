@@ -13,7 +13,7 @@ _FILAMENT_COMMON = {
     "axes": "mu = NoV_i = (i + 0.5)/128, perceptual roughness r_j = (j + 0.5)/128 (texel centres), alpha = r^2",
     "layout": "[roughness, mu]: row j = roughness (texture v), column i = NoV (texture u); row 0 = v lowest",
     "not_reproduced": "Filament samples 1024 Hammersley points with NDF sampling and stores RGB16F; the third "
-    "(cloth / Charlie) channel is not computed",
+    "(cloth / Charlie) channel is the preset filament-dfg-cloth (group sheen)",
 }
 
 _DFG_B_E = (Output("B", ("B",)), Output("E", ("A", "B")))

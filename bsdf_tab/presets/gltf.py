@@ -5,8 +5,8 @@ roughness)``: GGX NDF importance sampling, ``V_SmithGGXCorrelated`` with a2 = ro
 alpha = roughness^2; channels 4 (A, B) of the Schlick split) and ``source/ibl_sampler.js``
 (``lutResolution = 1024``, one fragment per texel, uv at texel centres); the viewer samples
 ``texture(u_GGXLUT, vec2(NdotV, perceptualRoughness))`` with no remap (``source/shaders/ibl.glsl``),
-``specular = specularColor brdf.x + brdf.y``. The Charlie (sheen) LUT of the same shader needs a
-sheen table kind and is not here.
+``specular = specularColor brdf.x + brdf.y``. The Charlie (sheen) LUT of the same shader is the
+preset ``gltf-charlie-lut`` (:mod:`.sheen`, group ``sheen``).
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ PRESET_LIST = [
             "layout": "[roughness, mu]: row j = roughness (PNG row j from the top = texture v = (j + 0.5)/1024 "
             "when uploaded without a flip), column i = NdotV",
             "storage": "16-bit PNG, unorm16, linear (no colour conversion on upload)",
-            "not_reproduced": "the sampler's 512-1024 NDF importance samples per texel; the Charlie (sheen) LUT",
+            "not_reproduced": "the sampler's 512-1024 NDF importance samples per texel; the Charlie (sheen) LUT "
+            "(preset gltf-charlie-lut)",
         },
         file_format="png", storage="unorm16",
     ),

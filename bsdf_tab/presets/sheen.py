@@ -3,7 +3,8 @@
 - **Filament** (google/filament, ``libs/ibl`` cmgen ``DFV_Charlie`` with ``shaders/src/brdf.fs``
   ``D_Charlie`` and ``V_Neubelt``): the third channel of the DFG texture, 128 x 128, NoV and
   perceptual roughness r at texel centres (alpha = r^2), RGB16F: E = int D_Charlie V_Neubelt
-  NoL dL, our ``sheen_albedo`` with ``sheen_shadowing = ashikhmin``.
+  NoL dL, our ``sheen_albedo`` with ``sheen_shadowing = ashikhmin``. Baked as a HALF EXR
+  (``half-exr``: float16, the storage of Filament's RGB16F; one channel, E).
 - **glTF Sample Viewer** (KhronosGroup/glTF-Sample-Viewer ``source/shaders/ibl_filtering.frag``,
   ``LUT()`` with ``u_distribution = cCharlie``): the blue channel of the Charlie LUT, E of
   D_Charlie with ``V_Ashikhmin`` = clamp(1 / (4 (NdotL + NdotV - NdotL NdotV)), 0, 1) (the clamp
@@ -13,8 +14,13 @@
   Charlie sample count and the exact PNG size were not verified against the shipped file.
 - ``khr-sheen-E-fitted``: what the ``KHR_materials_sheen`` albedo scaling
   ``1 - max(sheenColor) E(NdotV, sheenRoughness)`` means with the glTF shading model's own
-  visibility (the Estevez-Kulla fitted Lambda, ``V_Sheen``): 32 x 32 at texel centres, float32.
-  The Sample Viewer's shipped ``lut_sheen_E.png`` was not available to compare.
+  visibility (the Estevez-Kulla fitted Lambda, ``V_Sheen``): 32 x 32 at texel centres, float32,
+  clamped to [0, 1]. The Sample Viewer's shipped ``lut_sheen_E.png`` was not available to compare;
+  it is a PNG, which holds only [0, 1], so the reference's E never exceeds 1 and its albedo scaling
+  is never negative. The fitted E itself exceeds 1 at grazing NdotV (1 + 1/(1 + 4 alpha) at
+  NdotV = 0; on this grid 5 texels of the first NdotV column, roughness 3/64 .. 11/64, up to 1.454),
+  where 1 - max(sheenColor) E would be negative: the clamp (its change added to ``E_err``, as every
+  preset clamp) makes those texels 1, as the reference's storage does.
 
 Each preset subclasses :class:`~.recipe.Preset` only to leave the microfacet distribution and
 shadowing out of its spec; the sheen table's ``sheen_shadowing`` is in the preset's ``options``.
@@ -57,7 +63,7 @@ PRESET_LIST = [
                      "layout": "[roughness, mu]", "storage": "float16 (RGB16F with the DFG (A, B) or (B, E))",
                      "not_reproduced": "Filament's uniform-hemisphere Monte Carlo (its sample noise); the DFG "
                      "channels themselves are the filament-dfg presets"},
-        storage="float16",
+        file_format="half-exr", storage="float16",
     ),
     SheenPreset(
         name="gltf-charlie-lut", peer="glTF Sample Viewer Charlie LUT (u_CharlieLUT, lut_charlie.png, blue)",
@@ -77,15 +83,19 @@ PRESET_LIST = [
     ),
     SheenPreset(
         name="khr-sheen-E-fitted", peer="KHR_materials_sheen albedo scaling E(NdotV, sheenRoughness), fitted V",
-        description="sheen albedo E with the Estevez-Kulla fitted Lambda (V_Sheen, clamped to [0, 1]), 32 x 32 "
-        "[roughness, NdotV] at texel centres",
+        description="sheen albedo E with the Estevez-Kulla fitted Lambda (V_Sheen, clamped to [0, 1]), E clamped "
+        "to [0, 1] as a PNG LUT holds it, 32 x 32 [roughness, NdotV] at texel centres",
         axes=lambda: {"roughness": unit_centers(32), "mu": unit_centers(32)},
         table="sheen_albedo", shadowing="correlated", spec_axes={"mu": "mu", "roughness": "roughness"},
-        outputs=_E, options={"sheen_shadowing": "fitted"},
+        outputs=_E, options={"sheen_shadowing": "fitted"}, clamp01=True,
         conventions={"distribution": "Charlie, alpha = sheenRoughness^2",
                      "visibility": "V_Sheen = clamp(1 / ((1 + Lambda(NdotV) + Lambda(NdotL)) 4 NdotV NdotL), 0, 1), "
                      "Lambda the Estevez-Kulla fit",
                      "axes": "texel centres (i + 0.5)/32 in NdotV (u) and sheen roughness (v)", "layout": "[roughness, mu]",
+                     "clamp": "E clamped to [0, 1], as the Sample Viewer's PNG LUT (lut_sheen_E.png) can only hold it: "
+                     "the fitted E exceeds 1 at grazing NdotV (1 + 1/(1 + 4 alpha) at NdotV = 0; here 5 texels of "
+                     "the first NdotV column, roughness 3/64 .. 11/64, up to 1.454), where the albedo scaling "
+                     "1 - max(sheenColor) E would be negative; E_err includes what the clamp changed",
                      "not_reproduced": "the shipped lut_sheen_E.png (its resolution and generator were not verified)"},
     ),
 ]
