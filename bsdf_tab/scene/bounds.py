@@ -1,17 +1,19 @@
 """Failure certificates: candidates known to fail from points already checked, and the lower
 bound they give on the size of a spacing combination's winner.
 
-A point checked for a candidate with ``n_i`` nodes on interpolated axis ``i`` that is a
-midpoint along axis ``i`` and a node along every other interpolated axis ``j`` is looked up by
-interpolating along axis ``i`` only, between two texels at nodes of the candidate. On the
-nested doubling ladder (2, 3, 5, 9, ... nodes; the nodes of n are nodes of 2n - 1) a node
-index k of an n-node axis is a node of every ladder size from its *rung* on (the first size
-whose nodes contain it, :func:`rung`). So every candidate of the same spacings with ``n_i``
-nodes on axis ``i`` and at least the point's rung on each other axis looks the point up from
-the same two texels and makes the same error there: when that error is above the target, all
-of them fail. Such a *certificate* ``(i, n_i, rungs)`` is recorded for each failing point
-the search has checked (:class:`Certificates`); the texels of the point are the same stored
-texels, so no texel is computed to use it.
+A point checked for a candidate with ``n_i`` nodes on interpolated axis ``i`` that lies inside
+a cell along axis ``i`` (a point of its check lines that is not a node: a midpoint, or any
+other, which depend on ``n_i`` alone, :func:`.search.check_points`) and is a node along every
+other interpolated axis ``j`` is looked up by interpolating along axis ``i`` only,
+between two texels at nodes of the candidate. On the nested doubling ladder (2, 3, 5, 9, ...
+nodes; the nodes of n are nodes of 2n - 1) a node index k of an n-node axis is a node of every
+ladder size from its *rung* on (the first size whose nodes contain it, :func:`rung`). So every
+candidate of the same spacings with ``n_i`` nodes on axis ``i`` and at least the point's rung
+on each other axis checks that point (it is on its check lines), looks it up from the same two
+texels and makes the same error there: when that error is above the target, all of them fail.
+Such a *certificate* ``(i, n_i, rungs)`` is recorded for each failing point the search has
+checked (:class:`Certificates`); the texels of the point are the same stored texels, so no
+texel is computed to use it.
 
 The lower bound: a candidate that failed is followed, in the search, by the chain of
 candidates that double one axis at a time (which axis is decided by its cross points, which
@@ -91,13 +93,14 @@ class Certificates:
 
     def add_cross(self, axis: int, sizes: tuple[int, ...], err: np.ndarray, target: float,
                   worst: list[float] | None = None) -> None:
-        """Certificates from the errors ``err`` at a candidate's points that are midpoints along
-        ``axis`` (that axis: its n - 1 midpoints; every other interpolated axis: its nodes, in
-        order; no other axes); ``worst``: the coordinates of the largest (a hint)."""
+        """Certificates from the errors ``err`` at a candidate's points that lie inside its cells
+        along ``axis`` (that axis: any number of points, each between two of its nodes; every
+        other interpolated axis: its nodes, in order; no other axes); ``worst``: the coordinates
+        of the largest (a hint)."""
         bad = err > target + CERT_MARGIN
         if not bad.any():
             return
-        grids = np.meshgrid(*[rungs(n) if j != axis else np.zeros(n - 1, dtype=np.int64)
+        grids = np.meshgrid(*[rungs(n) if j != axis else np.zeros(err.shape[axis], dtype=np.int64)
                               for j, n in enumerate(sizes)], indexing="ij")
         found = np.stack([g[bad] for g in grids], axis=-1)
         top = float(err.max())

@@ -16,10 +16,12 @@ lookup error; the CLI's ``--tol``, the service's ``tol=``) and returns a :class:
   values (the range restricted to what the scene uses).
 - resolution: interpolated axes use endpoint nodes, a spacing the renderer supports
   (``linear``: t uniform in x; ``square``: t uniform in sqrt(x)) and the smallest node counts
-  on the doubling ladder 2, 3, 5, 9, 17, ... such that the lookup error, measured at every cell
-  midpoint by tabulating the refined grid (the nodes of the next rung), is below ``lookup_tol``:
-  error = max |lookup(table) - direct| + max integration error of the direct values. The axis
-  whose midpoints err most is refined first. Every spacing combination is tried; the one with
+  on the doubling ladder 2, 3, 5, 9, 17, ... such that the lookup error, measured by tabulating
+  the check set (every cell midpoint and centre, and along each axis at the others' nodes at
+  least 16 intervals and points ever closer to the low end of mu and alpha:
+  :mod:`.search`), is below ``PLAN_MARGIN * lookup_tol``: error = max |lookup(table) -
+  direct| + max integration error of the direct values. The axis whose check-line points inside
+  its cells err most is refined first. Every spacing combination is tried; the one with
   the fewest texels wins (ties: the first, in the order the scene lists spacings).
 - each table is integrated at ``lookup_tol / 20`` (its spec's ``tolerance``, the integration
   error). Every texel is computed by :func:`bsdf_tab.api.tabulate`, once per planning run
@@ -85,7 +87,7 @@ class TablePlan:
     axes: list[AxisPlan]
     materials: list[str]
     integration_tol: float  # the table spec's tolerance (integration error per texel)
-    max_error: float = math.nan  # verified lookup error at the midpoints (plus integration error)
+    max_error: float = math.nan  # verified lookup error at the check points (plus integration error)
     table: Any = None  # the baked Table (values at the planned nodes)
     fixed_error: float = math.nan  # the fixed-size alternative's lookup error at the same points
 
@@ -303,6 +305,30 @@ def _rough_entries(mats: list[dict], name: str) -> list[dict]:
     return out
 
 
+def _check_rough_axis(axis: AxisPlan, mats: list[dict], every: list[dict]) -> None:
+    """Refuse an interpolated alpha / roughness axis that starts at 0, before anything is computed.
+
+    Every table kind is discontinuous at (mu = 0, alpha = 0): E(0, alpha) -> 1 as alpha -> 0, but
+    along mu ~ alpha it dips by about 0.1 however small both are (a conductor's E(1e-4, 1e-4) =
+    0.89), so the cell at that corner errs by that much at any node count, and no tolerance the
+    planner accepts can be met. (A discrete 0, i.e. every material of the table giving values, is
+    read without interpolation and is fine.)"""
+    if axis.mode != "interp" or axis.range[0] > 0.0:
+        return
+    index = {id(m): i for i, m in enumerate(every)}
+    culprit = next(m for m in mats if min(next(iter(m["rough"].values()))) <= 0.0)
+    rk = culprit["rough_name"]
+    param = f"materials[{index[id(culprit)]}].{rk}" + (".range" if "range" in culprit["rough"] else "")
+    low = "0.02" if rk == "roughness" else "0.0004 (roughness 0.02)"
+    raise SpecError(
+        param,
+        f"an interpolated {rk} range that starts at 0 cannot be tabulated at any tol: the table is "
+        f"discontinuous at mu = 0, {rk} = 0 (near grazing it dips by about 0.1 along mu ~ alpha, however "
+        f"small both are), so no node count reaches the lookup error. Start the {rk} range above 0, "
+        f"e.g. at {low}",
+    )
+
+
 def _plan_table(plan: TablePlan, spacings: list[str], lookup_tol: float, interpolation: str, store: TexelStore,
                 max_texels: int | None, log: Callable[[str], None] | None = None) -> None:
     """Search the smallest candidate (:func:`.search.search`), bake it from the verified texels,
@@ -390,6 +416,7 @@ def plan_scene(
         rname = "roughness" if all(m["rough_name"] == "roughness" for m in mats) else "alpha"
         axes = [AxisPlan("mu", "interp", range=FULL_RANGES["mu"], spacing=spacings[0], size=2),
                 _merge_axis(rname, _rough_entries(mats, rname), spacings)]
+        _check_rough_axis(axes[1], mats, sc["materials"])
         fresnel = None
         if kind == "albedo":
             fresnel = {"type": "conductor", "eta": key[3], "k": key[4]}

@@ -64,13 +64,16 @@ def test_certificates_from_cross_errors_match_brute_force():
 
 
 def test_a_cross_point_reads_the_same_texels_in_every_covered_candidate():
-    """The principle: a point that is a midpoint along axis 0 and a node of rung r along axis 1
+    """The principle: a point inside a cell along axis 0 and at a node of rung r along axis 1
     has the same lookup in (n0, m) for every ladder m >= r, whatever the table's values."""
     f = lambda x, y: np.sin(7.0 * x) * np.exp(-3.0 * y) + x * y ** 3  # noqa: E731
     for spacing in ("linear", "square"):
         for n0, n1 in [(5, 3), (9, 5), (3, 9)]:
             ax0 = AxisPlan("mu", "interp", range=(0.0, 1.0), spacing=spacing, size=n0)
-            mids0 = AxisPlan("mu", "interp", range=(0.0, 1.0), spacing=spacing, size=2 * n0 - 1).nodes()[1::2]
+            # any point inside a cell along axis 0 (not only its midpoints: the check grid has
+            # several points per cell of a coarse axis, and more near the low end)
+            fine0 = AxisPlan("mu", "interp", range=(0.0, 1.0), spacing=spacing, size=64 * (n0 - 1) + 1).nodes()
+            mids0 = np.delete(fine0, np.arange(0, len(fine0), 64))
             ax1 = AxisPlan("alpha", "interp", range=(0.05, 0.3), spacing=spacing, size=n1)
             for k in range(n1):
                 y = ax1.nodes()[k]

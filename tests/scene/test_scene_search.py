@@ -1,7 +1,7 @@
 """bsdf_tab.scene.search and .texels: the reuse (one texel store per run, cross points first,
 lazy refinement of losing candidates, the fixed-size comparison on the texels it reads) does
 not change the plan. The reference is the documented search written again here without any
-reuse: every candidate verified on its whole refined grid, each one tabulated directly by
+reuse: every candidate verified on its whole check set, each one tabulated directly by
 ``bsdf_tab.api.tabulate`` and read with SciPy's grid interpolator in the texel coordinate."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import json
 import re
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -22,48 +23,97 @@ from bsdf_tab.scene.texels import cover
 GOLD = {"materials": [{"name": "gold", "type": "conductor", "eta": 0.18, "k": 3.42, "roughness": {"range": [0.3, 0.6]}}]}
 
 
-def _reference_errors(base: dict, axes: list[tuple[str, float, float]], combo, sizes):
-    """(the error at every point of the refined grid of the candidate, texels tabulated):
-    max |multilinear(even nodes) - value| + value's error, the refined grid (2n - 1 nodes per
-    axis) tabulated directly and read with SciPy in the texel coordinate."""
-    fine_axes = {name: {"size": 2 * n - 1, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
+def _check_t(n: int, low_end: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """(the check-line points of an n-node ladder axis in its coordinate t in [0, 1], the mask of
+    those inside its cells), as docs/scenes.md defines them: the uniform grid of
+    max(2n - 1, 17) points (every cell midpoint; at least 16 intervals over the range) and, on a
+    mu, alpha or roughness axis (``low_end``), 1/2, 1/4, ... of its first interval down to
+    1/1024 of the range."""
+    m = max(2 * n - 1, 17)
+    ends = []
+    x = Fraction(1, m - 1)
+    while low_end and x > Fraction(1, 1024):
+        x /= 2
+        ends.append(x)
+    pts = sorted({Fraction(j, m - 1) for j in range(m)} | set(ends))
+    inside = np.array([(p * (n - 1)).denominator != 1 for p in pts])
+    return np.array([float(p) for p in pts]), inside
+
+
+def _axis_values(t: np.ndarray, lo: float, hi: float, spacing: str) -> np.ndarray:
+    if spacing == "square":
+        return (np.sqrt(lo) + t * (np.sqrt(hi) - np.sqrt(lo))) ** 2
+    return lo + t * (hi - lo)
+
+
+def _reference_check(base: dict, axes: list[tuple[str, float, float]], combo, sizes):
+    """(the error over the candidate's check set, per axis the largest error on its check lines
+    at the points inside its cells, texels tabulated). The check set: the refined grid (2n - 1
+    nodes per axis: every cell midpoint and centre) and, along each axis, its check line
+    points (``_check_t``) at the nodes of the other axes. Error: |multilinear(nodes) - value| +
+    value's error; the candidate's nodes and every check grid tabulated directly with explicit
+    axes and read with SciPy in the texel coordinate."""
+    node_axes = {name: {"size": n, "spacing": sp, "nodes": "endpoints", "range": [lo, hi]}
                  for (name, lo, hi), n, sp in zip(axes, sizes, combo)}
-    fine = tabulate(dict(base, axes=fine_axes))
-    value, error = fine.channels["E"], fine.channels["E_err"]
-    coarse = value[tuple(slice(None, None, 2) for _ in axes)]
-    coords = []
-    for (name, lo, hi), n, sp in zip(axes, sizes, combo):
-        g = np.sqrt if sp == "square" else (lambda x: x)
-        coords.append((g(np.asarray(fine.axes[name])) - g(lo)) / (g(hi) - g(lo)) * (n - 1))
-    interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes], coarse)
-    mesh = np.meshgrid(*coords, indexing="ij")
-    looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1)).reshape(value.shape)
-    return np.abs(looked - value) + error, value.size
+    interp = RegularGridInterpolator([np.arange(n, dtype=float) for n in sizes],
+                                     tabulate(dict(base, axes=node_axes)).channels["E"])
+
+    def errors(ts):
+        vals = {name: _axis_values(t, lo, hi, sp).tolist() for (name, lo, hi), t, sp in zip(axes, ts, combo)}
+        fine = tabulate(dict(base, axes=vals))
+        mesh = np.meshgrid(*[t * (n - 1) for t, n in zip(ts, sizes)], indexing="ij")
+        looked = interp(np.stack([np.clip(m, 0, n - 1).ravel() for m, n in zip(mesh, sizes)], -1))
+        return np.abs(looked.reshape(mesh[0].shape) - fine.channels["E"]) + fine.channels["E_err"]
+
+    total = errors([np.linspace(0.0, 1.0, 2 * n - 1) for n in sizes])
+    texels, worst, per_axis = total.size, float(total.max()), []
+    for a, n in enumerate(sizes):
+        t, inside = _check_t(n)
+        err = errors([t if b == a else np.linspace(0.0, 1.0, m) for b, m in enumerate(sizes)])
+        texels += err.size
+        worst = max(worst, float(err.max()))
+        per_axis.append(float(np.take(err, np.flatnonzero(inside), axis=a).max()))
+    return worst, per_axis, texels
 
 
 def _reference_search(base: dict, axes: list[tuple[str, float, float]], tol: float, spacings=("linear", "square")):
     """Best-first over (spacing per axis, doubling-ladder sizes): fewest texels first, ties the
-    earlier spacing combination; verify on the refined grid (2n - 1 nodes per axis): error =
-    max |multilinear(even nodes) - value| + value's error; pass at 0.8 tol; a failing candidate
-    doubles the axis whose points that are midpoints along it only err most."""
+    earlier spacing combination; verify on the check set (``_reference_check``); pass at 0.8
+    tol; a failing candidate doubles the axis whose check line points inside its cells err
+    most."""
     combos = list(itertools.product(spacings, repeat=len(axes)))
     frontier = [(2 ** len(axes), ci, (2,) * len(axes)) for ci in range(len(combos))]
     texels = 0
     while frontier:
         frontier.sort()
         _, ci, sizes = frontier.pop(0)
-        err, n = _reference_errors(base, axes, combos[ci], sizes)
+        err, per_axis, n = _reference_check(base, axes, combos[ci], sizes)
         texels += n
-        if err.max() <= 0.8 * tol:
-            return combos[ci], sizes, float(err.max()), texels
-        per_axis = []
-        for a in range(len(axes)):
-            sl = tuple(slice(1, None, 2) if b == a else slice(None, None, 2) for b in range(len(axes)))
-            per_axis.append(err[sl].max())
+        if err <= 0.8 * tol:
+            return combos[ci], sizes, err, texels
         k = int(np.argmax(per_axis))
         grown = tuple(2 * n - 1 if j == k else n for j, n in enumerate(sizes))
         frontier.append((int(np.prod(grown)), ci, grown))
     raise AssertionError("no candidate passed")
+
+
+def test_check_points_are_the_documented_ones():
+    """The planner's check-line points of an axis against the definition (``_check_t``, exact
+    fractions): at least 16 intervals, every cell midpoint, on mu / alpha / roughness the low
+    end's halvings down to 1/1024 of the range; the points inside the cells are exactly those
+    that are not nodes."""
+    from bsdf_tab.scene.lookup import AxisPlan
+    from bsdf_tab.scene.search import check_points
+
+    cases = [("mu", "linear", (0.0, 1.0)), ("mu", "square", (0.0, 1.0)), ("alpha", "square", (0.05, 0.3)),
+             ("phi_v", "linear", (0.0, 0.5 * np.pi)), ("eta", "linear", (1.2, 1.6))]
+    for name, spacing, (lo, hi) in cases:
+        for n in [2, 3, 5, 9, 17, 33, 65, 129, 257, 513, 1025]:
+            values, inside = check_points(AxisPlan(name, "interp", range=(lo, hi), spacing=spacing, size=n))
+            t, mask = _check_t(n, low_end=name in ("mu", "alpha", "roughness"))
+            assert len(values) == len(t) and np.allclose(values, _axis_values(t, lo, hi, spacing), rtol=0, atol=1e-14)
+            assert np.array_equal(inside, np.flatnonzero(mask))
+            assert len(t) - 1 >= 16 and t.min() == 0.0 and t.max() == 1.0
 
 
 @pytest.mark.parametrize("tol", [4e-3, 1.5e-3])
@@ -85,8 +135,9 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch, tol):
     direct = tabulate(dict(base, axes={a.name: a.spec() for a in t.axes}))
     assert np.abs(t.table.channels["E"] - direct.channels["E"]).max() <= 2 * t.integration_tol
     # and the reuse saved work: fewer texels than verifying every candidate in full (the
-    # reference does not even count the fixed-size comparison, which the plan includes). 0.30
-    # of them at both tolerances; 0.40 / 0.38 before the certificates and windowed lines
+    # reference does not even count the fixed-size comparison, which the plan includes). 0.08 /
+    # 0.14 of them since the check grid has at least 16 intervals and the low end's points per
+    # axis (0.30 at both tolerances before; 0.40 / 0.38 before the certificates and windowed lines)
     computed = sum(int(np.prod([len(v) for v in s["axes"].values()])) for s in counted)
     assert computed == plan.texels_computed and computed < 0.35 * ref_texels, (computed, ref_texels)
     # every candidate failed by a certificate (no texel computed for it) does fail in full
@@ -94,8 +145,9 @@ def test_reuse_keeps_the_plan_of_the_search_without_reuse(monkeypatch, tol):
                  for line in lines if "certified" in line]
     assert len(certified) == plan.candidates_certified > 0 and plan.line_probes > 0
     for n_mu, sp_mu, n_r, sp_r, bound in certified:
-        err, _ = _reference_errors(base, [("mu", 0.0, 1.0), ("roughness", 0.3, 0.6)], (sp_mu, sp_r), (int(n_mu), int(n_r)))
-        assert err.max() > 0.8 * tol and err.max() >= float(bound) * (1 - 1e-3) - t.integration_tol, (n_mu, n_r, bound)
+        err, _, _ = _reference_check(base, [("mu", 0.0, 1.0), ("roughness", 0.3, 0.6)], (sp_mu, sp_r),
+                                     (int(n_mu), int(n_r)))
+        assert err > 0.8 * tol and err >= float(bound) * (1 - 1e-3) - t.integration_tol, (n_mu, n_r, bound)
 
 
 def test_cover_is_exact():
