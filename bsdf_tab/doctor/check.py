@@ -29,7 +29,7 @@ from .nd import claimed_axes as file_axes, search_nd
 from .ndcheck import check_nd
 from .report import Report
 from .storage import BITS as _BITS
-from .storage import MU_CLAMPS, drop_guesses, out_of_unit, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
+from .storage import MU_CLAMPS, drop_guesses, fit_findings, high_frequency as _hf, quantization as _quantization, storage_rms as _storage_rms
 
 __all__ = ["MU_CLAMPS", "check_image", "check_lut", "check_lut_bytes"]
 
@@ -214,13 +214,8 @@ def _findings(report: Report, best: Hypothesis, resid: np.ndarray, mu_rows: bool
     f = report.findings
     if nan_note:
         f.append(nan_note)
-    outside, decisive = out_of_unit(report_data, infinite)
-    if outside:
-        f.append(outside)
-    if best.score > 0.02 or decisive:
-        f.append(f"no candidate fits well (best mean error {best.score:.3g}"
-                 f"{'; values far outside [0, 1]' if decisive else ''}): this may not be an albedo, "
-                 "split-sum or multiscatter table of GGX or Beckmann")
+    fit_findings(f, report_data, infinite, best.score,
+                 "an albedo, split-sum or multiscatter table of GGX or Beckmann")
     if best.shadowing == "schlick":
         f.append("shadowing: Schlick-GGX G1 = x / (x (1 - k) + k) with k = alpha / 2 (Karis' UE4 notes, "
                  "learnopengl.com, Godot), an approximation of Smith GGX that loses up to 0.28 in E at grazing angles; "

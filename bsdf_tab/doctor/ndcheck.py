@@ -18,7 +18,7 @@ from .glass import AVG_RULE, Z_MAX, albedo_avg_exact_at, glass_avg_exact_at, gla
 from .nd import FILE_SPACING, KINDS_ND, NDHypothesis, claimed_axes as file_axes, predict, search_nd, to_file_order
 from .claims import axis_orders
 from .readers import LutImage
-from .storage import BITS, MU_CLAMPS, drop_guesses, high_frequency, out_of_unit, quantization, storage_rms
+from .storage import BITS, MU_CLAMPS, drop_guesses, fit_findings, high_frequency, quantization, storage_rms
 
 __all__ = ["MAX_CHECK", "NDReport", "check_nd"]
 
@@ -326,13 +326,7 @@ def _findings(report: NDReport, best: NDHypothesis, resid: np.ndarray, nodes: di
     labels = AXIS_LABELS[len(best.axes)]
     if not np.isfinite(data).all():
         f.append(f"{int((~np.isfinite(data)).sum())} texels are NaN or infinite (ignored in the fit)")
-    outside, decisive = out_of_unit(data, infinite)
-    if outside:
-        f.append(outside)
-    if best.score > 0.02 or decisive:
-        f.append(f"no candidate fits well (best mean error {best.score:.3g}"
-                 f"{'; values far outside [0, 1]' if decisive else ''}): this may not be an albedo average or a "
-                 "GGX dielectric R / T table")
+    fit_findings(f, data, infinite, best.score, "an albedo average or a GGX dielectric R / T table")
     if best.encoding == "srgb-decoded":
         f.append("decoded as sRGB: the values are the sRGB decode of the table (an *_SRGB texture format, or a "
                  "PNG/KTX2 sRGB tag honoured by the loader); read the LUT as linear data")

@@ -9,7 +9,7 @@ import numpy as np
 
 from .readers import LutImage
 
-__all__ = ["BITS", "MU_CLAMPS", "NO_FIT", "drop_guesses", "high_frequency", "out_of_unit", "quantization",
+__all__ = ["BITS", "MU_CLAMPS", "NO_FIT", "drop_guesses", "fit_findings", "high_frequency", "out_of_unit", "quantization",
            "storage_rms"]
 
 #: Candidate clamps of the mu = 0 end (the search tries each): value -> where it comes from.
@@ -63,6 +63,17 @@ NO_FIT = 0.02
 _KEPT_WITHOUT_FIT = ("no candidate fits well", "stored at", "stored as float16", "left out: ", "values outside [0, 1]")
 #: how far outside [0, 1] a value may lie (noise, rounding) before it is no energy
 UNIT_SLACK = 0.05
+
+
+def fit_findings(findings: list, data: np.ndarray, infinite: int, score: float, what: str) -> None:
+    """Append the values-outside-[0, 1] finding and, when no candidate fits (mean error above 0.02, or
+    values far outside), the line saying so; ``what`` names the kinds the doctor tried."""
+    outside, decisive = out_of_unit(data, infinite)
+    if outside:
+        findings.append(outside)
+    if score > 0.02 or decisive:
+        findings.append(f"no candidate fits well (best mean error {score:.3g}"
+                        f"{'; values far outside [0, 1]' if decisive else ''}): this may not be {what}")
 
 
 def out_of_unit(data: np.ndarray, infinite: int = 0) -> tuple[str | None, bool]:
