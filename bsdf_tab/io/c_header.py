@@ -23,13 +23,21 @@ import numpy as np
 from .atomic import write_text
 from .base import Format, json_default, layout_words, max_error
 
-__all__ = ["FORMAT", "c_identifier", "header_text", "header_bytes", "write_header"]
+__all__ = ["FORMAT", "c_identifier", "c_prefix", "header_text", "header_bytes", "write_header"]
 
 
 def c_identifier(name: str) -> str:
     """``name`` as a C identifier: non-alphanumerics become ``_``; a leading digit gets ``_``."""
     ident = re.sub(r"[^A-Za-z0-9_]", "_", str(name)) or "_"
     return "_" + ident if ident[0].isdigit() else ident
+
+
+def c_prefix(name: str) -> str:
+    """``name`` as an identifier prefix that starts with a letter: :func:`c_identifier`, with ``lut_``
+    in front of a leading digit or underscore (C reserves ``_X`` and ``__`` names: ``3d-lut`` ->
+    ``lut_3d_lut``, whose macros ``LUT_3D_LUT_*`` are not reserved either)."""
+    ident = c_identifier(name or "table")
+    return ident if ident[0].isalpha() else "lut_" + (ident.lstrip("_") or "table")
 
 
 def _c_float(x: float) -> str:
@@ -97,7 +105,7 @@ def header_text(table, name: str = "bsdf_tab_table") -> str:
     name : str
         The identifier prefix ``<P>`` (sanitized to a C identifier).
     """
-    prefix = c_identifier(name)
+    prefix = c_prefix(name)
     guard = c_identifier(prefix.upper() + "_H")
     if not guard.startswith("BSDF_TAB"):
         guard = "BSDF_TAB_" + guard

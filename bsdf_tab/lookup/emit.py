@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..io import write_text
-from ..io.c_header import c_identifier
+from ..io.c_header import c_identifier, c_prefix
 from .axes import LookupPlan, lookup_plan
 from .dialects import DIALECTS, LANGS, Dialect
 
@@ -71,7 +71,7 @@ class _Ctx:
     @property
     def data_prefix(self) -> str:
         """The prefix of the ``.h`` data file of the same name (:func:`bsdf_tab.io.c_header.write_header`)."""
-        return c_identifier(self.table_stem)
+        return c_prefix(self.table_stem)
 
     @property
     def nch(self) -> int:
@@ -98,10 +98,7 @@ def file_prefix(out_path) -> str:
     non-alphanumerics as ``_``; a name that does not start with a letter gets ``lut_`` in front
     (``3d-lut.ktx2`` -> ``lut_3d_lut``: no identifier, macro included, starts with a digit or an
     underscore, which C reserves as ``_X`` / ``__``)."""
-    ident = c_identifier(Path(out_path).name.split(".")[0] or "table")
-    if not ident[0].isalpha():
-        ident = "lut_" + (ident.lstrip("_") or "table")
-    return ident
+    return c_prefix(Path(out_path).name.split(".")[0] or "table")
 
 
 def output_paths(out_path, langs) -> list[Path]:

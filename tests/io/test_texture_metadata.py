@@ -360,3 +360,20 @@ def test_streamed_exr_bake_reports_its_storage(tmp_path, capsys, bsdf_spec):
     # the file holds float32 values: their rounding is below half a float32 ulp of each
     assert report["channels"]["f_r"]["storage_error"] <= float(np.max(np.spacing(np.float32(x)))) / 2
     assert f"storage float32 adds f_r {report['channels']['f_r']['storage_error']:.2g}" in out
+
+
+def test_a_header_named_after_a_digit_gets_no_reserved_identifier(tmp_path):
+    """C reserves names starting with an underscore and a capital or a second underscore: a
+    table file named ``3d-lut.h`` gets ``lut_3d_lut`` identifiers (the lookup code uses the same)."""
+    import re
+
+    import bsdf_tab
+    from bsdf_tab.io.c_header import c_prefix, header_text
+
+    table = bsdf_tab.tabulate({"table": "albedo_avg", "axes": {"alpha": [0.2, 0.5]}, "tolerance": 1e-3})
+    text = header_text(table, "3d-lut")
+    names = set(re.findall(r"(?:#define|static const (?:float|double))\s+([A-Za-z_][A-Za-z0-9_]*)", text))
+    names.discard("BSDF_TAB_LUT_3D_LUT_H")  # the include guard
+    assert names and all(n.lower().startswith("lut_3d_lut") for n in names), names
+    assert not any(n.startswith("_") for n in names)
+    assert c_prefix("_x") == "lut_x" and c_prefix("dfg") == "dfg" and c_prefix("9") == "lut_9"
