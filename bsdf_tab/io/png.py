@@ -30,7 +30,7 @@ from .atomic import write_bytes
 from .base import Format, build, shape_of, value_channels
 from .exr import image_shape
 from .storage import as_encoded, encode, get_encoding, requested_encoding, storage_report
-from .texture import metadata_strings, parts_from_metadata, table_from_texels, texel_array
+from .texture import image_dims, metadata_strings, parts_from_metadata, table_from_texels, texel_array
 
 __all__ = ["CICP_LINEAR", "FORMAT", "GAMA_LINEAR", "SIGNATURE", "png_bytes", "png_from_bytes", "read_png", "write_png"]
 
@@ -55,8 +55,10 @@ def png_bytes(table, encoding: str | None = None) -> bytes:
     Raises
     ------
     ValueError
-        If the table has no value channel, more than 4, or an encoding other than unorm16 / unorm8.
+        If the table has no value channel, more than 4, more than 3 axes, or an encoding other
+        than unorm16 / unorm8.
     """
+    image_dims(table)  # 1 to 3 axes, as every texture (a 4-axis table reached a KeyError)
     encoding = encoding or requested_encoding(table, "png")
     if encoding not in ("unorm16", "unorm8"):
         raise ValueError(f"png stores unorm16 or unorm8, not {encoding}")

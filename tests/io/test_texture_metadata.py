@@ -377,3 +377,17 @@ def test_a_header_named_after_a_digit_gets_no_reserved_identifier(tmp_path):
     assert names and all(n.lower().startswith("lut_3d_lut") for n in names), names
     assert not any(n.startswith("_") for n in names)
     assert c_prefix("_x") == "lut_x" and c_prefix("dfg") == "dfg" and c_prefix("9") == "lut_9"
+
+
+@pytest.mark.parametrize("suffix", [".png", ".ktx2", ".dds"])
+def test_a_four_axis_table_is_refused_by_every_texture(tmp_path, suffix):
+    """A final review's find: PNG reached a KeyError (an internal error) where KTX2 and DDS refuse."""
+    import bsdf_tab
+
+    table = bsdf_tab.tabulate({"table": "albedo_aniso", "axes": {"mu": [0.5, 1.0], "phi_v": [0.0], "alpha": [0.3],
+                                                                 "anisotropy": [0.0]}})
+    from bsdf_tab.io import write
+
+    with pytest.raises(ValueError, match="1 to 3 axes, this one has 4"):
+        write(table, tmp_path / f"t{suffix}")
+    assert not any(tmp_path.iterdir())
