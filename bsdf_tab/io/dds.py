@@ -30,7 +30,7 @@ import numpy as np
 
 from .atomic import write_bytes
 from .base import Format, value_channels
-from .storage import as_encoded, check_range, encode, get_encoding, requested_encoding
+from .storage import as_encoded, encode, get_encoding, requested_encoding
 from .texture import image_dims, texel_array
 
 __all__ = ["DXGI_FORMATS", "FORMAT", "dds_bytes", "dxgi_format", "write_dds"]
@@ -104,7 +104,6 @@ def dds_bytes(table, encoding: str | None = None) -> bytes:
     encoding = encoding or requested_encoding(table, "dds")
     names = value_channels(table.channels)
     _, dxgi, comps = dxgi_format(encoding, len(names))
-    check_range(table, encoding)
     width, height, depth = image_dims(table)
     data, texel_bytes = _pixels(texel_array(table, encode(table, encoding)), encoding, comps)
     flags = _DDSD_CAPS | _DDSD_HEIGHT | _DDSD_WIDTH | _DDSD_PITCH | _DDSD_PIXELFORMAT | _DDSD_MIPMAPCOUNT

@@ -37,7 +37,7 @@ import numpy as np
 
 from .atomic import write_bytes
 from .base import Format, build, value_channels
-from .storage import as_encoded, check_range, encode, get_encoding, requested_encoding, storage_report
+from .storage import as_encoded, encode, get_encoding, requested_encoding, storage_report
 from .texture import image_dims, metadata_strings, parts_from_metadata, table_from_texels, texel_array
 
 __all__ = ["FORMAT", "IDENTIFIER", "VK_FORMATS", "ktx2_bytes", "ktx2_from_bytes", "read_ktx2", "vk_format", "write_ktx2"]
@@ -184,7 +184,6 @@ def ktx2_bytes(table, encoding: str | None = None) -> bytes:
         encoding cannot hold a value (beyond 65504 for float16: never written as an infinity).
     """
     encoding, name = _encoded(table, encoding)
-    check_range(table, encoding)
     width, height, depth = image_dims(table)
     stored = encode(table, encoding)
     pixels = _pixel_data(texel_array(table, stored), name, encoding)

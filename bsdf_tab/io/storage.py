@@ -292,8 +292,11 @@ def choose_encoding(table, fmt: str, tol: float) -> tuple[str, dict]:
 
 
 def encode(table, encoding: str) -> dict[str, np.ndarray]:
-    """Value channel -> stored values q(x) (float64), in the table's channel order."""
+    """Value channel -> stored values q(x) (float64), in the table's channel order; a float
+    ``encoding`` that cannot hold a finite value is refused here, for every writer
+    (:func:`check_range`)."""
     enc = get_encoding(encoding)
+    check_range(table, encoding)
     return {n: enc.quantize(table.channels[n]) for n in value_channels(table.channels)}
 
 
