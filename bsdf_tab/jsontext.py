@@ -7,20 +7,31 @@ import json
 
 from .errors import SpecError
 
-__all__ = ["loads", "unique_keys"]
+__all__ = ["RepeatedKey", "loads", "unique_keys"]
+
+
+class RepeatedKey(SpecError):
+    """A JSON object that gives ``key`` more than once (the service names it ``body.<key>``)."""
+
+    def __init__(self, key: str) -> None:
+        self.key = key[:60]
+        super().__init__(None, f"the key {self.key!r} is given more than once in one JSON object; "
+                               "which one was meant is a guess: give it once")
+
+    def __reduce__(self):
+        return (type(self), (self.key,))
 
 
 def unique_keys(pairs: list) -> dict:
-    """``json.loads`` hook: the object of ``pairs``, or a :class:`SpecError` naming a repeated key."""
+    """``json.loads`` hook: the object of ``pairs``, or :class:`RepeatedKey`."""
     out = {}
     for key, value in pairs:
         if key in out:
-            raise SpecError(None, f"the key {key[:60]!r} is given more than once in one JSON object; "
-                                  "which one was meant is a guess: give it once")
+            raise RepeatedKey(key)
         out[key] = value
     return out
 
 
-def loads(text: str):
+def loads(text: str | bytes):
     """``json.loads`` with :func:`unique_keys` (``json.JSONDecodeError`` for invalid text)."""
     return json.loads(text, object_pairs_hook=unique_keys)

@@ -6,11 +6,12 @@ Routers never import each other; everything two of them need lives here.
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 
 from fastapi import Request
 from starlette.requests import ClientDisconnect
+
+from bsdf_tab import jsontext
 
 from .compute import TableStore
 from .errors import ClientGone, ServiceError
@@ -51,15 +52,6 @@ def etag_matches(request: Request, etag: str) -> bool:
     return any((t[2:] if t.startswith("W/") else t) == etag for t in tags)
 
 
-def _no_duplicates(pairs: list) -> dict:
-    seen = {}
-    for key, value in pairs:
-        if key in seen:  # JSON allows it, but which one was meant is a guess: refuse it
-            raise ServiceError(400, "invalid_body", f"the key {key[:60]!r} is given more than once", param=f"body.{key[:60]}")
-        seen[key] = value
-    return seen
-
-
 async def read_body(request: Request, limit: int, what: str = "the body") -> bytes:
     """The raw body: at most ``limit`` bytes (413), arriving within ``body_timeout`` seconds (408).
 
@@ -95,6 +87,8 @@ async def read_json_body(request: Request):
     if not raw.strip():
         raise ServiceError(400, "invalid_body", "the body must be a JSON object, got an empty body", param="body")
     try:
-        return json.loads(raw, object_pairs_hook=_no_duplicates)
+        return jsontext.loads(raw)
+    except jsontext.RepeatedKey as exc:  # JSON allows it, but which one was meant is a guess: refuse it
+        raise ServiceError(400, "invalid_body", exc.message, param=f"body.{exc.key}") from None
     except (ValueError, RecursionError) as exc:  # JSONDecodeError, bad UTF-8, too-deep nesting
         raise ServiceError(400, "invalid_body", f"the body is not valid JSON: {str(exc)[:200]}", param="body") from None
