@@ -100,9 +100,8 @@ def test_checks_go_through_the_tables_door(tmp_path, flipped_npy, monkeypatch):
     import asyncio
     import threading
 
-    import httpx
-
     import service.routes.check as check_route
+    from tests.service.held import asgi_client, started
 
     real = check_route.check_payload
     state = {"started": threading.Event(), "release": threading.Event(), "calls": 0}
@@ -117,11 +116,9 @@ def test_checks_go_through_the_tables_door(tmp_path, flipped_npy, monkeypatch):
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
 
     async def main():
-        transport = httpx.ASGITransport(app=app)
-        async with httpx.AsyncClient(transport=transport, base_url="http://svc") as c:
+        async with asgi_client(app) as c:
             first = asyncio.create_task(c.post("/check", content=flipped_npy))
-            while not state["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(state)
             health = (await c.get("/healthz")).json()
             second = await c.post("/check", content=flipped_npy)
             table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")

@@ -14,10 +14,7 @@ import service.compute  # noqa: E402
 from bsdf_tab.errors import SpecError  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.settings import Settings  # noqa: E402
-
-
-def _client(app):
-    return httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://svc")
+from tests.service.held import asgi_client, started  # noqa: E402
 
 
 def _hold(monkeypatch, which=lambda spec: True, reporting: bool = False) -> dict:
@@ -66,10 +63,9 @@ def test_simultaneous_requests_compute_once(tmp_path, slow_tabulate):
     n = 24
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             tasks = [asyncio.create_task(c.get(url + ("&format=npz" if i % 3 == 0 else ""))) for i in range(n)]
-            while not slow_tabulate["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(slow_tabulate)
             await asyncio.sleep(0.2)  # every request is now waiting on the one computation
             health = (await c.get("/healthz")).json()
             slow_tabulate["release"].set()
@@ -92,15 +88,14 @@ def test_health_and_cached_tables_stay_fast_while_computing(tmp_path, slow_tabul
     cached = "/tables/albedo?mu=0.5,1&alpha=0.5"
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             slow_tabulate["release"].set()
             assert (await c.get(cached)).status_code == 200  # now cached
             slow_tabulate["release"].clear()
             slow_tabulate["started"].clear()
             big = asyncio.create_task(c.get("/tables/albedo?mu=0.1,0.5,1&alpha=0.1,0.5"))
             other = asyncio.create_task(c.get("/tables/albedo?mu=0.2,0.6&alpha=0.3"))  # queued behind it
-            while not slow_tabulate["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(slow_tabulate)
             timings = []
             for _ in range(5):
                 t0 = time.perf_counter()
@@ -123,10 +118,9 @@ def test_queue_full_is_503_with_retry_after(tmp_path, slow_tabulate):
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             first = asyncio.create_task(c.get("/tables/albedo?mu=0.5&alpha=0.5"))
-            while not slow_tabulate["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(slow_tabulate)
             busy = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
             slow_tabulate["release"].set()
             return busy, await first
@@ -149,7 +143,7 @@ def test_a_failed_computation_reaches_every_waiter_then_is_retried(tmp_path, mon
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             tasks = [asyncio.create_task(c.get("/tables/albedo?mu=0.5&alpha=0.5")) for _ in range(6)]
             await asyncio.sleep(0.2)
             gate.set()
@@ -181,10 +175,9 @@ def test_scenes_go_through_the_same_door(tmp_path, monkeypatch):
     scene = {"tolerance": 0.05, "materials": [{"type": "conductor", "eta": 2.5, "k": 3.0, "alpha": 0.3}]}
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             first = asyncio.create_task(c.post("/scenes", json=scene))
-            while not state["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(state)
             health = (await c.get("/healthz")).json()
             others = [await c.post("/scenes", params={"tol": str(0.05 + i / 1000)}, json=scene) for i in range(1, 4)]
             table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
@@ -206,10 +199,9 @@ def test_a_running_job_never_holds_the_synchronous_slot(tmp_path, held_dfg):
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_compute_seconds=5))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             job = await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}}})
-            while not held_dfg["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(held_dfg)
             t0 = time.monotonic()
             table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
             took = time.monotonic() - t0
@@ -236,10 +228,9 @@ def test_a_request_queued_past_its_limit_is_busy_and_never_runs(tmp_path, held_d
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_compute_seconds=1))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             first = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
-            while not held_dfg["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(held_dfg)
             t0 = time.monotonic()
             queued = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
             took = time.monotonic() - t0
@@ -269,7 +260,7 @@ def test_a_body_that_stalls_is_408_at_the_body_timeout(tmp_path, path):
         yield b"}"
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             t0 = time.monotonic()
             r = await c.post(path, content=stalled(), headers={"content-type": "application/json"})
             return r, time.monotonic() - t0
@@ -287,11 +278,10 @@ def test_jobs_never_fill_the_synchronous_queue(tmp_path, held_dfg):
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_concurrent=1, max_queued=0))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             ids = [(await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [m], "roughness": [0.5]}}})).json()["id"]
                    for m in (0.2, 0.4, 0.6)]
-            while not held_dfg["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(held_dfg)
             table = await c.get("/tables/albedo?mu=0.5&alpha=0.6")
             statuses = [(await c.get(f"/jobs/{i}")).json()["status"] for i in ids]
             held_dfg["release"].set()
@@ -315,10 +305,9 @@ def test_a_job_joining_a_request_s_computation_is_not_stopped_by_the_request_s_l
     app = create_app(Settings(cache_dir=tmp_path, warmup=False, workers=1, max_compute_seconds=1, job_max_seconds=60))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             sync = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
-            while not held["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(held)
             job = (await c.post("/jobs", json={"spec": {"table": "dfg", "axes": {"mu": [0.5], "roughness": [0.5]}}})).json()
             request = await sync  # leaves at its own limit; the job still waits
             await asyncio.sleep(0.5)
@@ -343,10 +332,9 @@ def test_a_retry_after_busy_starts_afresh_and_an_abandoned_queued_table_frees_it
                               max_compute_seconds=1))
 
     async def main():
-        async with _client(app) as c:
+        async with asgi_client(app) as c:
             first = asyncio.create_task(c.get("/tables/dfg?mu=0.5&roughness=0.5"))
-            while not held_dfg["started"].is_set():
-                await asyncio.sleep(0.01)
+            await started(held_dfg)
             queued = await c.get("/tables/albedo?mu=0.5&alpha=0.6")  # queued behind dfg, leaves at 1 s
             await asyncio.sleep(0.1)  # its cancelled task unwinds on the loop's next turns
             health = (await c.get("/healthz")).json()
